@@ -1,0 +1,88 @@
+#pragma once
+// Header-only generator of the benchmark's large scene: a tower of twisted
+// n-strut prisms (each in its own equilibrium), consecutive layers overlapping
+// and joined by extra cables from every top node of a layer to the nearest
+// bottom nodes of the next, until the cable count is reached; then every node
+// is moved by seeded noise so the scene needs form finding. The defaults give
+// the 80-strut / 500-cable scene (10 layers of 8-strut prisms).
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "model/reference_scenes.hpp"
+#include "model/structure.hpp"
+
+namespace tensegrity::bench {
+
+struct LargeSceneParameters {
+  int layers = 10;
+  int struts_per_layer = 8;
+  int cables = 500;            // total, prism cables included
+  double layer_height = 1.0;   // m, prism height
+  double overlap = 0.3;        // fraction of a layer's height shared with the next
+  double noise = 0.02;         // node noise as a fraction of the strut length
+  unsigned seed = 1;
+  bool gravity = false;        // masses on struts and cables, bottom ring fixed
+};
+
+inline Structure make_prism_tower(const LargeSceneParameters& p) {
+  Structure s;
+  const int n = p.struts_per_layer;
+  const double twist = prism_equilibrium_twist(n);
+  const double rise = p.layer_height * (1.0 - p.overlap);
+  std::vector<std::vector<int>> bottom(p.layers), top(p.layers);
+  for (int l = 0; l < p.layers; ++l) {
+    // Each layer turned by half a step so its bottom ring sits between the
+    // previous top ring's nodes.
+    const double turn = l * (twist + M_PI / n);
+    for (int k = 0; k < n; ++k) {
+      const double t = turn + 2.0 * M_PI * k / n;
+      bottom[l].push_back(s.add_node({std::cos(t), std::sin(t), l * rise}, p.gravity && l == 0));
+    }
+    for (int k = 0; k < n; ++k) {
+      const double t = turn + twist + 2.0 * M_PI * k / n;
+      top[l].push_back(s.add_node({std::cos(t), std::sin(t), l * rise + p.layer_height}));
+    }
+    const double strut_mass = p.gravity ? 0.05 : 0.0, cable_mass = p.gravity ? 0.005 : 0.0;
+    for (int k = 0; k < n; ++k) s.add_element(bottom[l][k], top[l][(k + 1) % n], ElementKind::Strut, strut_mass);
+    for (int k = 0; k < n; ++k) s.add_element(bottom[l][k], top[l][k], ElementKind::Cable, cable_mass);
+    for (int k = 0; k < n; ++k) s.add_element(bottom[l][k], bottom[l][(k + 1) % n], ElementKind::Cable, cable_mass);
+    for (int k = 0; k < n; ++k) s.add_element(top[l][k], top[l][(k + 1) % n], ElementKind::Cable, cable_mass);
+  }
+  // Joining cables: round j links every top node of layer l to its j-th
+  // nearest bottom node of layer l + 1.
+  int cables = 3 * n * p.layers;
+  for (int round = 0; round < n && cables < p.cables; ++round) {
+    for (int l = 0; l + 1 < p.layers && cables < p.cables; ++l) {
+      for (int a : top[l]) {
+        if (cables >= p.cables) break;
+        std::vector<std::pair<double, int>> near;
+        for (int b : bottom[l + 1]) near.push_back({(s.positions.col(a) - s.positions.col(b)).norm(), b});
+        std::sort(near.begin(), near.end());
+        s.add_element(a, near[round].second, ElementKind::Cable, p.gravity ? 0.005 : 0.0);
+        ++cables;
+      }
+    }
+  }
+  if (p.gravity) s.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  // Noise relative to the strut length.
+  const auto& e0 = s.elements.front();
+  const double strut = (s.positions.col(e0.b) - s.positions.col(e0.a)).norm();
+  std::mt19937 rng(p.seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < s.num_nodes(); ++i) {
+    if (s.fixed[i]) continue;
+    Eigen::Vector3d d(u(rng), u(rng), u(rng));
+    if (d.norm() > 1.0) d.normalize();
+    s.positions.col(i) += p.noise * strut * d;
+  }
+  s.name = "tower-" + std::to_string(p.layers * n) + "s-" + std::to_string(cables) + "c" +
+           (p.gravity ? "-gravity" : "");
+  return s;
+}
+
+}  // namespace tensegrity::bench

@@ -1,0 +1,44 @@
+// The `tensegrity` program: subcommands registered from their own files.
+#include <iostream>
+
+#include "cli/commands.hpp"
+#include "model/errors.hpp"
+
+int main(int argc, char** argv) {
+  using namespace tensegrity;
+  CLI::App app{"tensegrity: form finding for tensegrity structures"};
+  app.require_subcommand(1);
+  cli::CommandRunner run;
+  cli::register_solvers_command(app, run);
+  cli::register_solve_command(app, run);
+  cli::register_forces_command(app, run);
+  cli::register_check_command(app, run);
+  cli::register_generate_command(app, run);
+  cli::register_build_command(app, run);
+  cli::register_export_command(app, run);
+  cli::register_render_command(app, run);
+  cli::register_design_command(app, run);
+  cli::register_fit_material_command(app, run);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "tensegrity: usage: " << e.what() << "\n";
+    return 2;
+  }
+  try {
+    return run ? run() : 2;
+  } catch (const InputError& e) {
+    std::cerr << "tensegrity: " << e.what() << "\n";
+    return 2;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "tensegrity: out of memory\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "tensegrity: error: " << e.what() << "\n";
+    return 2;
+  }
+}

@@ -1,0 +1,44 @@
+#include "cli/output.hpp"
+
+#include <cstdio>
+#include <sstream>
+
+#include "model/errors.hpp"
+#include "model/scene_io.hpp"
+
+namespace tensegrity::cli {
+
+std::string summary_line(const Structure& scene, std::string_view solver, const SolveResult& r) {
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "%s: %s by %.*s in %d iterations, %.3g s, relative residual %.3g, geometry change %.6g m",
+                scene.name.empty() ? "scene" : scene.name.c_str(), std::string(to_string(r.status)).c_str(),
+                static_cast<int>(solver.size()), solver.data(), r.stats.iterations, r.stats.seconds,
+                r.stats.relative_residual, r.stats.geometry_change);
+  std::string line = buf;
+  if (r.status != Status::Converged && !r.message.empty()) line += " (" + r.message + ")";
+  return line;
+}
+
+void write_trace_csv(const std::string& path, const std::vector<TracePoint>& trace) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "seconds,iteration,evaluations,residual,relative_residual,geometry_change,objective\n";
+  for (const auto& p : trace)
+    out << p.seconds << ',' << p.iteration << ',' << p.evaluations << ',' << p.residual << ','
+        << p.relative_residual << ',' << p.geometry_change << ',' << p.objective << '\n';
+  write_text_file_atomically(path, out.str());
+}
+
+std::map<std::string, std::string> parse_key_values(const std::vector<std::string>& items) {
+  std::map<std::string, std::string> kv;
+  for (const auto& item : items) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw InputError("command line", "--option " + item, "expected key=value");
+    kv[item.substr(0, eq)] = item.substr(eq + 1);
+  }
+  return kv;
+}
+
+}  // namespace tensegrity::cli

@@ -1,0 +1,64 @@
+// tensegrity solve SCENE [--solver NAME] [--out FILE] [--tol T] [--option k=v]... [--trace FILE]
+#include <iostream>
+#include <memory>
+
+#include "cli/commands.hpp"
+#include "cli/output.hpp"
+#include "model/errors.hpp"
+#include "model/scene_io.hpp"
+
+namespace tensegrity::cli {
+
+namespace {
+struct SolveArgs {
+  std::string scene;
+  std::string solver;
+  std::string out = "-";
+  std::string trace;
+  double tol = 1e-8;
+  int max_iterations = 2000;
+  double time_limit = 120.0;
+  bool verbose = false;
+  bool no_skip = false;
+  std::vector<std::string> options;
+};
+}  // namespace
+
+void register_solve_command(CLI::App& app, CommandRunner& run) {
+  auto args = std::make_shared<SolveArgs>();
+  auto* cmd = app.add_subcommand("solve", "Form-find a scene with one backend; write its solution");
+  cmd->add_option("scene", args->scene, "Scene file (*.scene.json)")->required();
+  cmd->add_option("--solver", args->solver, "Backend name (see `tensegrity solvers`); default: the recommended one");
+  cmd->add_option("--out", args->out, "Solution file, - for standard output");
+  cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
+  cmd->add_option("--max-iterations", args->max_iterations, "Backend iteration budget");
+  cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds");
+  cmd->add_option("--option", args->options, "Backend option key=value (repeatable)");
+  cmd->add_option("--trace", args->trace, "Write the per-iteration record as CSV");
+  cmd->add_flag("--verbose", args->verbose, "Let the backend print its own log to stderr");
+  cmd->add_flag("--no-skip", args->no_skip, "Do not return early when the scene is already in equilibrium");
+  cmd->callback([args, &run] {
+    run = [args] {
+      SolveOptions options;
+      options.tolerance = args->tol;
+      options.max_iterations = args->max_iterations;
+      options.time_limit_s = args->time_limit;
+      options.verbose = args->verbose;
+      options.skip_if_in_equilibrium = !args->no_skip;
+      options.backend_options = parse_key_values(args->options);
+      std::string why;
+      if (!options.IsValid(&why)) throw InputError("command line", "options", why);
+      const std::string name = args->solver.empty() ? default_solver_name() : args->solver;
+      const auto solver = make_solver(name);
+      solver->check_options(options);
+      const Structure scene = read_scene_file(args->scene);
+      const SolveResult r = solve_scene(*solver, scene, options);
+      write_solution_file(to_solution(r, scene, name), args->out);
+      if (!args->trace.empty()) write_trace_csv(args->trace, r.trace);
+      std::cerr << summary_line(scene, name, r) << "\n";
+      return exit_status(r.status);
+    };
+  });
+}
+
+}  // namespace tensegrity::cli

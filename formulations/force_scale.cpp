@@ -1,0 +1,51 @@
+#include "formulations/force_scale.hpp"
+
+#include <limits>
+
+namespace tensegrity {
+
+ForceScale make_force_scale(const Structure& s, double margin_fraction) {
+  ForceScale scale;
+  const int m = s.num_elements();
+
+  // Total weight of the free nodes; the supports carry the rest.
+  double weight = 0.0;
+  if (s.has_gravity()) {
+    const Eigen::VectorXd mass = s.lumped_mass();
+    double free_mass = 0.0;
+    for (int i = 0; i < s.num_nodes(); ++i) {
+      const bool is_fixed = i < static_cast<int>(s.fixed.size()) && s.fixed[i];
+      if (!is_fixed) free_mass += mass[i];
+    }
+    weight = free_mass * s.gravity.norm();
+  }
+  scale.reference_force = weight > 0.0 ? weight : 1.0;
+  scale.margin = margin_fraction * scale.reference_force;
+
+  const double inf = std::numeric_limits<double>::infinity();
+  scale.lower.resize(m);
+  scale.upper.resize(m);
+  scale.normalisation_row = Eigen::VectorXd::Zero(m);
+  for (int e = 0; e < m; ++e) {
+    if (s.elements[e].kind == ElementKind::Cable) {
+      scale.lower[e] = scale.margin;
+      scale.upper[e] = inf;
+      scale.normalisation_row[e] = 1.0;
+      ++scale.num_cables;
+    } else {
+      scale.lower[e] = -inf;
+      scale.upper[e] = -scale.margin;
+    }
+  }
+  scale.normalisation_target = scale.num_cables * scale.reference_force;
+  return scale;
+}
+
+Eigen::VectorXd reference_forces(const Structure& s, const ForceScale& scale) {
+  Eigen::VectorXd sigma(s.num_elements());
+  for (int e = 0; e < s.num_elements(); ++e)
+    sigma[e] = s.elements[e].kind == ElementKind::Cable ? scale.reference_force : -scale.reference_force;
+  return sigma;
+}
+
+}  // namespace tensegrity

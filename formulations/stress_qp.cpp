@@ -1,0 +1,551 @@
+#include "formulations/stress_qp.hpp"
+
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace tensegrity {
+
+bool StressQpOptions::IsValid() const {
+  return std::isfinite(mu) && mu > 0.0 && std::isfinite(normalisation_weight) &&
+         normalisation_weight >= 0.0 && max_iterations >= 0 && max_polish_steps >= 0 &&
+         std::isfinite(optimality_tolerance) && optimality_tolerance > 0.0;
+}
+
+namespace {
+
+using SparseMatrix = Eigen::SparseMatrix<double>;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+}  // namespace
+
+struct StressQp::Impl {
+  // Problem data.
+  int m = 0;      // elements (unknowns)
+  int rows = 0;   // 3 n_free (equations)
+  double mu = 0.0, w2 = 0.0, target = 0.0, f0 = 1.0;
+  bool normalised = false;
+  Eigen::VectorXd lower, upper, c;
+
+  // A's pattern as analysed (column starts, row indices, value offsets), to
+  // detect a topology change and to address A's values directly.
+  std::vector<int> a_col_start, a_row, a_value;
+
+  // K (lower triangle, (m+1) x (m+1)), its values for an empty held set, and
+  // for every value of K the pairs of A values whose products sum into it.
+  SparseMatrix K;
+  std::vector<double> base;
+  std::vector<int> k_row, k_col;
+  std::vector<int> pair_start, pair_a, pair_b;
+  Eigen::VectorXd diag_n;  // N_ii = |A_i|^2 + w^2 c_i^2 + mu
+
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+  bool factorization_valid = false;
+  std::vector<char> held, factored_held;  // W of the current step / of the factorization
+
+  // Work space, sized once per topology.
+  Eigen::VectorXd s, g, d, trial, step, rhs, lin_res, op_out, masked, best_s;
+  Eigen::VectorXd aug_rhs, aug_sol;
+  Eigen::VectorXd r, a_step;  // equation-sized
+
+  void build(const SparseMatrix& A, const ForceScale& scale, const StressQpOptions& o);
+  bool pattern_matches(const SparseMatrix& A) const;
+  bool refresh(const SparseMatrix& A);
+  bool factorize(const std::vector<char>& hold);
+  void apply_normal(const SparseMatrix& A, const Eigen::VectorXd& x, Eigen::VectorXd& out);
+  void apply_modified(const Eigen::VectorXd& x, const SparseMatrix& A, Eigen::VectorXd& out);
+  bool solve_modified(const SparseMatrix& A, const Eigen::VectorXd& b, Eigen::VectorXd& x);
+  void residual(const SparseMatrix& A, const Eigen::VectorXd* fg, const Eigen::VectorXd& x,
+                Eigen::VectorXd& res) const;
+  double project(int i, double v) const { return std::min(std::max(v, lower[i]), upper[i]); }
+};
+
+void StressQp::Impl::build(const SparseMatrix& A, const ForceScale& scale,
+                           const StressQpOptions& o) {
+  m = static_cast<int>(A.cols());
+  rows = static_cast<int>(A.rows());
+  mu = o.mu;
+  normalised = scale.has_normalisation() && o.normalisation_weight > 0.0 &&
+               scale.normalisation_row.size() == m;
+  w2 = normalised ? o.normalisation_weight * o.normalisation_weight : 0.0;
+  target = normalised ? scale.normalisation_target : 0.0;
+  f0 = scale.reference_force > 0.0 && std::isfinite(scale.reference_force) ? scale.reference_force
+                                                                            : 1.0;
+  lower = scale.lower.size() == m ? scale.lower : Eigen::VectorXd::Constant(m, -kInf);
+  upper = scale.upper.size() == m ? scale.upper : Eigen::VectorXd::Constant(m, kInf);
+  c = normalised ? scale.normalisation_row : Eigen::VectorXd::Zero(m);
+
+  // A's columns (row, value offset), read through InnerIterator so that an
+  // uncompressed matrix is addressed correctly too.
+  a_col_start.assign(m + 1, 0);
+  a_row.clear();
+  a_value.clear();
+  for (int j = 0; j < m; ++j) {
+    for (SparseMatrix::InnerIterator it(A, j); it; ++it) {
+      a_row.push_back(static_cast<int>(it.row()));
+      a_value.push_back(static_cast<int>(&it.value() - A.valuePtr()));
+    }
+    a_col_start[j + 1] = static_cast<int>(a_row.size());
+  }
+  // Row lists of A: which columns (and value offsets) touch each equation.
+  std::vector<int> row_start(rows + 1, 0);
+  for (int r : a_row) ++row_start[r + 1];
+  for (int i = 0; i < rows; ++i) row_start[i + 1] += row_start[i];
+  std::vector<int> row_col(a_row.size()), row_val(a_row.size()), fill(row_start.begin(), row_start.end() - 1);
+  for (int j = 0; j < m; ++j) {
+    for (int p = a_col_start[j]; p < a_col_start[j + 1]; ++p) {
+      const int slot = fill[a_row[p]]++;
+      row_col[slot] = j;
+      row_val[slot] = a_value[p];
+    }
+  }
+
+  // Contributions to the lower triangle of A^T A: (col f, row e >= f, A value of e, A value of f).
+  struct Contribution { int col, row, va, vb; };
+  std::vector<Contribution> contributions;
+  for (int f = 0; f < m; ++f) {
+    for (int p = a_col_start[f]; p < a_col_start[f + 1]; ++p) {
+      const int i = a_row[p];
+      for (int q = row_start[i]; q < row_start[i + 1]; ++q) {
+        if (row_col[q] >= f) contributions.push_back({f, row_col[q], row_val[q], a_value[p]});
+      }
+    }
+  }
+
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(contributions.size() + 2 * m + 1);
+  for (const Contribution& t : contributions) triplets.emplace_back(t.row, t.col, 1.0);
+  for (int e = 0; e < m; ++e) {
+    triplets.emplace_back(e, e, 1.0);
+    if (c[e] != 0.0) triplets.emplace_back(m, e, 1.0);
+  }
+  triplets.emplace_back(m, m, 1.0);
+  K.resize(m + 1, m + 1);
+  K.setFromTriplets(triplets.begin(), triplets.end());
+  K.makeCompressed();
+
+  const int nnz = static_cast<int>(K.nonZeros());
+  k_row.resize(nnz);
+  k_col.resize(nnz);
+  for (int j = 0; j <= m; ++j) {
+    for (int k = K.outerIndexPtr()[j]; k < K.outerIndexPtr()[j + 1]; ++k) {
+      k_row[k] = K.innerIndexPtr()[k];
+      k_col[k] = j;
+    }
+  }
+  auto value_index = [&](int row, int col) {
+    const int* begin = K.innerIndexPtr() + K.outerIndexPtr()[col];
+    const int* end = K.innerIndexPtr() + K.outerIndexPtr()[col + 1];
+    return static_cast<int>(std::lower_bound(begin, end, row) - K.innerIndexPtr());
+  };
+  pair_start.assign(nnz + 1, 0);
+  std::vector<int> owner(contributions.size());
+  for (std::size_t t = 0; t < contributions.size(); ++t) {
+    owner[t] = value_index(contributions[t].row, contributions[t].col);
+    ++pair_start[owner[t] + 1];
+  }
+  for (int k = 0; k < nnz; ++k) pair_start[k + 1] += pair_start[k];
+  pair_a.resize(contributions.size());
+  pair_b.resize(contributions.size());
+  std::vector<int> next(pair_start.begin(), pair_start.end() - 1);
+  for (std::size_t t = 0; t < contributions.size(); ++t) {
+    const int slot = next[owner[t]]++;
+    pair_a[slot] = contributions[t].va;
+    pair_b[slot] = contributions[t].vb;
+  }
+  base.assign(nnz, 0.0);
+  diag_n.setZero(m);
+
+  ldlt.analyzePattern(K);
+  factorization_valid = false;
+  held.assign(m, 0);
+  factored_held.assign(m, 0);
+
+  for (Eigen::VectorXd* v : {&s, &g, &d, &trial, &step, &rhs, &lin_res, &op_out, &masked, &best_s})
+    v->setZero(m);
+  aug_rhs.setZero(m + 1);
+  aug_sol.setZero(m + 1);
+  r.setZero(rows);
+  a_step.setZero(rows);
+}
+
+bool StressQp::Impl::pattern_matches(const SparseMatrix& A) const {
+  if (A.cols() != m || A.rows() != rows) return false;
+  for (int j = 0; j < m; ++j) {
+    int p = a_col_start[j];
+    for (SparseMatrix::InnerIterator it(A, j); it; ++it, ++p) {
+      if (p >= a_col_start[j + 1] || a_row[p] != it.row() ||
+          a_value[p] != static_cast<int>(&it.value() - A.valuePtr()))
+        return false;
+    }
+    if (p != a_col_start[j + 1]) return false;
+  }
+  return true;
+}
+
+// Values of K for an empty held set and the diagonal of N, from A's current
+// values. False when the geometry produced non-finite values.
+bool StressQp::Impl::refresh(const SparseMatrix& A) {
+  const double* a = A.valuePtr();
+  const int nnz = static_cast<int>(base.size());
+  bool finite = true;
+  for (int k = 0; k < nnz; ++k) {
+    const int row = k_row[k], col = k_col[k];
+    double v = 0.0;
+    if (row == m) {
+      v = col == m ? (normalised ? -1.0 / w2 : -1.0) : c[col];
+    } else {
+      for (int p = pair_start[k]; p < pair_start[k + 1]; ++p) v += a[pair_a[p]] * a[pair_b[p]];
+      if (row == col) {
+        v += mu;
+        diag_n[row] = v + w2 * c[row] * c[row];
+      }
+    }
+    base[k] = v;
+    finite = finite && std::isfinite(v);
+  }
+  factorization_valid = false;
+  return finite;
+}
+
+bool StressQp::Impl::factorize(const std::vector<char>& hold) {
+  double* values = K.valuePtr();
+  const int nnz = static_cast<int>(base.size());
+  for (int k = 0; k < nnz; ++k) {
+    const int row = k_row[k], col = k_col[k];
+    const bool row_held = row < m && hold[row];
+    const bool col_held = col < m && hold[col];
+    if (row == col)
+      values[k] = row_held ? diag_n[row] : base[k];
+    else
+      values[k] = row_held || col_held ? 0.0 : base[k];
+  }
+  ldlt.factorize(K);
+  factored_held = hold;
+  factorization_valid = ldlt.info() == Eigen::Success;
+  return factorization_valid;
+}
+
+// out = N x.
+void StressQp::Impl::apply_normal(const SparseMatrix& A, const Eigen::VectorXd& x,
+                                  Eigen::VectorXd& out) {
+  a_step.noalias() = A * x;
+  out.noalias() = A.transpose() * a_step;
+  out += (w2 * c.dot(x)) * c + mu * x;
+}
+
+// out = N~ x, where N~ is N with the held rows/columns replaced by N_ii e_i.
+void StressQp::Impl::apply_modified(const Eigen::VectorXd& x, const SparseMatrix& A,
+                                    Eigen::VectorXd& out) {
+  for (int i = 0; i < m; ++i) masked[i] = factored_held[i] ? 0.0 : x[i];
+  a_step.noalias() = A * masked;
+  out.noalias() = A.transpose() * a_step;
+  const double cx = w2 * c.dot(masked);
+  for (int i = 0; i < m; ++i)
+    out[i] = factored_held[i] ? diag_n[i] * x[i] : out[i] + cx * c[i] + mu * masked[i];
+}
+
+// Solves N~ x = b with the factorization of K and iterative refinement
+// against N~ itself.
+bool StressQp::Impl::solve_modified(const SparseMatrix& A, const Eigen::VectorXd& b,
+                                    Eigen::VectorXd& x) {
+  aug_rhs.head(m) = b;
+  aug_rhs[m] = 0.0;
+  aug_sol = ldlt.solve(aug_rhs);
+  x = aug_sol.head(m);
+  const double b_norm = b.lpNorm<Eigen::Infinity>();
+  double previous = kInf;
+  for (int refinement = 0; refinement < 4; ++refinement) {
+    apply_modified(x, A, op_out);
+    lin_res = b - op_out;
+    const double res_norm = lin_res.lpNorm<Eigen::Infinity>();
+    if (!std::isfinite(res_norm)) return false;
+    if (res_norm <= 4.0 * kEps * b_norm || res_norm > 0.5 * previous) break;
+    previous = res_norm;
+    aug_rhs.head(m) = lin_res;
+    aug_rhs[m] = 0.0;
+    aug_sol = ldlt.solve(aug_rhs);
+    x += aug_sol.head(m);
+  }
+  return x.allFinite();
+}
+
+void StressQp::Impl::residual(const SparseMatrix& A, const Eigen::VectorXd* fg,
+                              const Eigen::VectorXd& x, Eigen::VectorXd& res) const {
+  res.noalias() = A * x;
+  if (fg) res += *fg;
+}
+
+StressQp::StressQp(const Equilibrium& eq, const ForceScale& scale, StressQpOptions options)
+    : eq_(eq), scale_(scale), options_(options), impl_(std::make_unique<Impl>()) {
+  impl_->build(eq_.A(), scale_, options_);
+}
+
+StressQp::~StressQp() = default;
+
+StressQpResult StressQp::solve() {
+  Impl& q = *impl_;
+  const int m = eq_.num_elements();
+  Eigen::VectorXd start(m);
+  const double f0 = q.m == m ? q.f0 : 1.0;
+  for (int e = 0; e < m; ++e) {
+    const double lo = q.m == m ? q.lower[e] : -kInf;
+    const double hi = q.m == m ? q.upper[e] : kInf;
+    start[e] = hi == kInf ? f0 : (lo == -kInf ? -f0 : 0.5 * (lo + hi));
+  }
+  return solve(start);
+}
+
+StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
+  const SparseMatrix& A = eq_.A();
+  Impl& q = *impl_;
+  StressQpResult result;
+  if (!q.pattern_matches(A)) q.build(A, scale_, options_);
+  const int m = q.m;
+
+  // Starting point: sigma0 projected; the cold start where it is unusable.
+  if (sigma0.size() == m && sigma0.allFinite()) {
+    for (int i = 0; i < m; ++i) q.s[i] = q.project(i, sigma0[i]);
+  } else {
+    for (int i = 0; i < m; ++i)
+      q.s[i] = q.project(i, q.upper[i] == kInf ? q.f0 : (q.lower[i] == -kInf ? -q.f0 : 0.0));
+  }
+
+  const Eigen::VectorXd& fg_full = eq_.gravity_load();
+  const Eigen::VectorXd* fg =
+      eq_.has_gravity() && fg_full.size() == q.rows ? &fg_full : nullptr;
+  const double fg_max = fg ? fg->lpNorm<Eigen::Infinity>() : 0.0;
+
+  const double tol = std::max(options_.optimality_tolerance, 32.0 * kEps * std::sqrt(m + 1.0));
+  auto gradient_scale = [&](const Eigen::VectorXd& x) {
+    return std::max({q.f0, x.lpNorm<Eigen::Infinity>(), fg_max});
+  };
+  // r = A s + f_g and g = A^T r + w^2 c (c^T s - t) + mu_term s.
+  auto evaluate = [&](const Eigen::VectorXd& x, double mu_term) {
+    q.residual(A, fg, x, q.r);
+    q.g.noalias() = A.transpose() * q.r;
+    const double e = q.c.dot(x) - q.target;
+    q.g += (q.w2 * e) * q.c + mu_term * x;
+  };
+
+  bool ok = options_.IsValid() && q.refresh(A) && (fg == nullptr || std::isfinite(fg_max));
+  bool settled = false;
+  bool last_step_exact = false;
+
+  // Projected Newton on the regularised objective. A few non-monotone full
+  // steps are allowed (as in a primal-dual active-set method: the projection
+  // of the subproblem's minimiser predicts the new active set at once, even
+  // when that point is worse), safeguarded by a return to the best point.
+  double best_objective = kInf;
+  int nonmonotone_left = 8;
+  for (int iteration = 0; ok; ++iteration) {
+    evaluate(q.s, q.mu);
+    const double objective = 0.5 * (q.r.squaredNorm() + q.w2 * std::pow(q.c.dot(q.s) - q.target, 2) +
+                                    q.mu * q.s.squaredNorm());
+    const bool record = objective < best_objective;
+    if (record) {
+      best_objective = objective;
+      q.best_s = q.s;
+    } else if (nonmonotone_left == 0) {
+      q.s = q.best_s;  // budget spent: continue monotonically from the best point
+      evaluate(q.s, q.mu);
+      nonmonotone_left = -1;
+      last_step_exact = false;
+    }
+    double pg = 0.0;
+    for (int i = 0; i < m; ++i) pg = std::max(pg, std::abs(q.s[i] - q.project(i, q.s[i] - q.g[i])));
+    if (!std::isfinite(pg)) { ok = false; break; }
+    if (pg <= tol * gradient_scale(q.s)) { settled = true; break; }
+
+    // Held set W: forces at a bound with the gradient pushing out. (Bertsekas'
+    // epsilon-enlarged set, which also holds forces merely near a bound,
+    // converged linearly on degenerate scenes: it keeps nudging forces whose
+    // optimum lies just inside the box. The truncated-step candidate below
+    // gives the progress guarantee instead.)
+    for (int i = 0; i < m; ++i) {
+      q.held[i] = (q.s[i] <= q.lower[i] && q.g[i] > 0.0) || (q.s[i] >= q.upper[i] && q.g[i] < 0.0);
+    }
+    if (last_step_exact && q.factorization_valid && q.held == q.factored_held) {
+      settled = true;
+      break;
+    }
+    if (iteration >= options_.max_iterations) break;
+    if (!q.factorization_valid || q.held != q.factored_held) {
+      ++result.factorizations;
+      if (!q.factorize(q.held)) { ok = false; break; }
+    }
+    q.rhs = -q.g;
+    if (!q.solve_modified(A, q.rhs, q.d)) { ok = false; break; }
+
+    // Candidate steps, judged by the exact decrease of the quadratic
+    // (-g.dx - dx.N dx / 2, accurate near a non-zero minimum, unlike a
+    // difference of objectives):
+    //  - the projected Newton step P(s + d) (the usual case);
+    //  - Bertsekas' Armijo backtracking along the projection arc;
+    //  - d truncated at the first bound it meets (a guaranteed decrease that
+    //    makes the blocking bound active, as in a primal active-set method).
+    // The largest decrease wins, so a poor projection (many bounds crossed
+    // at once from a warm start) cannot stall the iteration.
+    auto decrease_of = [&](const Eigen::VectorXd& step) {
+      q.a_step.noalias() = A * step;
+      const double c_step = q.c.dot(step);
+      return -q.g.dot(step) - 0.5 * (q.a_step.squaredNorm() + q.w2 * c_step * c_step +
+                                     q.mu * step.squaredNorm());
+    };
+    auto projected_step = [&](double alpha) {
+      for (int i = 0; i < m; ++i) q.step[i] = q.project(i, q.s[i] + alpha * q.d[i]) - q.s[i];
+      return -q.g.dot(q.step);  // first-order decrease, for the Armijo test
+    };
+    double best = 0.0;
+    bool full_step = false;
+    auto consider = [&](double decrease) {
+      if (decrease > best) {
+        best = decrease;
+        q.trial = q.s + q.step;
+        return true;
+      }
+      return false;
+    };
+    const double predicted_full = projected_step(1.0);
+    const double decrease_full = decrease_of(q.step);
+    full_step = consider(decrease_full);
+    bool clipped = false;  // did the projection change a free component of s + d?
+    for (int i = 0; i < m && !clipped; ++i)
+      clipped = !q.held[i] && q.project(i, q.s[i] + q.d[i]) != q.s[i] + q.d[i];
+    const bool armijo_full = decrease_full >= 1e-4 * predicted_full && decrease_full > 0.0;
+    // Only from a new best point, which rules out cycling between two sets.
+    if (!armijo_full && nonmonotone_left > 0 && record) {
+      --nonmonotone_left;
+      q.trial = q.s + q.step;
+      full_step = true;
+      best = kInf;  // taken regardless of the decrease
+    } else if (!armijo_full) {
+      double alpha_max = 1.0;
+      for (int i = 0; i < m; ++i) {
+        if (q.d[i] < 0.0) alpha_max = std::min(alpha_max, (q.lower[i] - q.s[i]) / q.d[i]);
+        if (q.d[i] > 0.0) alpha_max = std::min(alpha_max, (q.upper[i] - q.s[i]) / q.d[i]);
+      }
+      if (alpha_max > 0.0) {
+        projected_step(alpha_max);  // exact up to the blocking bound, which it lands on
+        if (consider(decrease_of(q.step))) full_step = false;
+      }
+      double alpha = 0.5;
+      for (int trial = 0; trial < 40; ++trial, alpha *= 0.5) {
+        const double predicted = projected_step(alpha);
+        if (q.step.lpNorm<Eigen::Infinity>() == 0.0) break;
+        const double decrease = decrease_of(q.step);
+        if (decrease > 0.0 && decrease >= 1e-4 * predicted) {
+          if (consider(decrease)) full_step = false;
+          break;
+        }
+      }
+    }
+    if (!(best > 0.0)) {
+      // The Newton direction can fail to descend along the projection arc
+      // (a free force at its bound whose Newton component points out). The
+      // projected diagonally scaled gradient always descends unless sigma is
+      // stationary: backtrack along it instead.
+      double alpha = 1.0;
+      for (int trial = 0; trial < 60; ++trial, alpha *= 0.5) {
+        for (int i = 0; i < m; ++i)
+          q.step[i] = q.project(i, q.s[i] - alpha * q.g[i] / q.diag_n[i]) - q.s[i];
+        if (q.step.lpNorm<Eigen::Infinity>() == 0.0) break;
+        const double predicted = -q.g.dot(q.step);
+        const double decrease = decrease_of(q.step);
+        if (decrease > 0.0 && decrease >= 1e-4 * predicted) {
+          consider(decrease);
+          break;
+        }
+      }
+      full_step = false;
+    }
+    if (!(best > 0.0)) break;  // no progress is possible at rounding level
+    // An unclipped full Newton step that left every held force at its bound
+    // solved the subproblem of this held set exactly: if the next gradient
+    // holds the same set, the active set has settled.
+    last_step_exact = full_step && !clipped;
+    for (int i = 0; i < m && last_step_exact; ++i)
+      last_step_exact = !q.held[i] || q.trial[i] <= q.lower[i] || q.trial[i] >= q.upper[i];
+    q.s = q.trial;
+    ++result.iterations;
+  }
+
+  // Polish on the final free set (the forces not at a bound): iterated
+  // Tikhonov steps remove the mu bias from the residual.
+  if (ok && settled && options_.max_polish_steps > 0) {
+    for (int i = 0; i < m; ++i) q.held[i] = q.s[i] <= q.lower[i] || q.s[i] >= q.upper[i];
+    bool factored = q.factorization_valid && q.held == q.factored_held;
+    if (!factored) {
+      ++result.factorizations;
+      factored = q.factorize(q.held);
+    }
+    if (factored) {
+      auto free_gradient_norm = [&]() {
+        evaluate(q.s, 0.0);
+        double worst = 0.0;
+        for (int i = 0; i < m; ++i) {
+          if (q.held[i]) q.g[i] = 0.0;
+          worst = std::max(worst, std::abs(q.g[i]));
+        }
+        return worst;
+      };
+      double current = free_gradient_norm();
+      for (int step = 0; step < options_.max_polish_steps && current > 0.0; ++step) {
+        q.rhs = -q.g;
+        if (!q.solve_modified(A, q.rhs, q.d)) break;
+        q.trial = q.s;
+        for (int i = 0; i < m; ++i)
+          if (!q.held[i]) q.s[i] = q.project(i, q.s[i] + q.d[i]);
+        const double next = free_gradient_norm();
+        if (!(next < current)) {  // rounding level reached: keep the better point
+          q.s = q.trial;
+          break;
+        }
+        ++result.polish_steps;
+        current = next;
+        if (current <= 4.0 * kEps * gradient_scale(q.s)) break;
+      }
+    } else {
+      ok = false;
+    }
+  }
+
+  // Report, from a fresh evaluation of the returned forces.
+  for (int i = 0; i < m; ++i)
+    if (!std::isfinite(q.s[i])) q.s[i] = q.project(i, 0.0);
+  result.sigma = q.s;
+  evaluate(q.s, 0.0);
+  const double e = q.c.dot(q.s) - q.target;
+  result.normalisation_error = e;
+  result.equilibrium_norm = q.r.norm();
+  result.objective = q.r.squaredNorm() + q.w2 * e * e;
+  double max_node = 0.0;
+  for (int k = 0; 3 * k + 2 < q.rows; ++k) max_node = std::max(max_node, q.r.segment<3>(3 * k).norm());
+  result.max_node_residual = max_node;
+  double kkt = 0.0;
+  for (int i = 0; i < m; ++i) {
+    const double allowance = q.mu * std::abs(q.s[i]);
+    const bool at_lower = q.s[i] <= q.lower[i], at_upper = q.s[i] >= q.upper[i];
+    double violation = std::abs(q.g[i]);
+    if (at_lower && at_upper) violation = 0.0;
+    else if (at_lower) violation = std::max(0.0, -q.g[i]);
+    else if (at_upper) violation = std::max(0.0, q.g[i]);
+    if (at_lower || at_upper) ++result.active_bounds;
+    kkt = std::max(kkt, violation - allowance);
+  }
+  result.kkt_error = std::max(0.0, kkt) / gradient_scale(q.s);
+  if (!std::isfinite(result.kkt_error)) result.kkt_error = kInf;
+  for (double* v : {&result.normalisation_error, &result.equilibrium_norm, &result.objective,
+                    &result.max_node_residual})
+    if (!std::isfinite(*v)) *v = kInf;
+  // A zero-length (or non-finite) element has no direction: the forces are
+  // the best for the remaining columns, but not a trustworthy answer.
+  result.optimal = ok && !eq_.degenerate() && result.kkt_error <= tol;
+  return result;
+}
+
+}  // namespace tensegrity

@@ -1,0 +1,12 @@
+#pragma once
+// Human-friendly JSON text for scene and solution files: known keys first in a
+// fixed order (format, version, name, ...), short arrays and objects on one
+// line, and numbers in nlohmann's shortest form that round-trips exactly.
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace tensegrity {
+
+std::string to_json_text(const nlohmann::json& j);
+
+}  // namespace tensegrity

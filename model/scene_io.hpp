@@ -1,0 +1,25 @@
+#pragma once
+// Scene files (CONTRACT.md, format "tensegrity-scene", version 1).
+#include <iosfwd>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "model/structure.hpp"
+
+namespace tensegrity {
+
+// Parses a JSON file; malformed JSON becomes InputError with line and column.
+nlohmann::json read_json_file(const std::string& path);
+
+// Builds and validates a structure from a parsed scene; `source` names the file
+// in error messages.
+Structure scene_from_json(const nlohmann::json& j, const std::string& source);
+Structure read_scene_file(const std::string& path);
+
+nlohmann::json scene_to_json(const Structure& s);
+void write_scene_file(const Structure& s, const std::string& path);
+
+// Writes text to `path` through a temporary file and a rename ("-" = stdout).
+void write_text_file_atomically(const std::string& path, const std::string& text);
+
+}  // namespace tensegrity

@@ -1,0 +1,534 @@
+#include "solvers/alternating_solver.hpp"
+
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "formulations/equilibrium.hpp"
+#include "formulations/force_scale.hpp"
+#include "formulations/stress_qp.hpp"
+#include "model/errors.hpp"
+#include "model/verify.hpp"
+#include "solvers/options_parsing.hpp"
+#include "solvers/trace_recorder.hpp"
+
+namespace tensegrity {
+namespace {
+
+using SparseMatrix = Eigen::SparseMatrix<double>;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// N = sum over columns b_k of w_k b_k b_k^T (+ lambda I), where the columns are
+// those of J (positions) and of [A; w_n c^T] (forces, with the normalisation
+// row). The symmetric pattern, a fill-reducing ordering and the symbolic LDLT
+// analysis are computed once; every assembly writes values in place through a
+// precomputed scatter plan, in the permuted numbering, upper triangle.
+class NormalMatrix {
+ public:
+  NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const Eigen::VectorXd* normalisation_row)
+      : positions_(static_cast<int>(J.cols())),
+        rows_(static_cast<int>(J.rows())),
+        size_(rows_ + (normalisation_row ? 1 : 0)) {
+    const int m = static_cast<int>(A.cols());
+    has_norm_entry_.assign(m, 0);
+    if (normalisation_row)
+      for (int e = 0; e < m; ++e) has_norm_entry_[e] = (*normalisation_row)[e] != 0.0;
+
+    // Pattern of every column (original numbering), in assembly order.
+    std::vector<std::vector<int>> columns;
+    columns.reserve(positions_ + m);
+    for (int k = 0; k < positions_; ++k)
+      columns.emplace_back(J.innerIndexPtr() + J.outerIndexPtr()[k], J.innerIndexPtr() + J.outerIndexPtr()[k + 1]);
+    for (int e = 0; e < m; ++e) {
+      columns.emplace_back(A.innerIndexPtr() + A.outerIndexPtr()[e], A.innerIndexPtr() + A.outerIndexPtr()[e + 1]);
+      if (has_norm_entry_[e]) columns.back().push_back(rows_);
+    }
+
+    // Fill-reducing ordering of the full symmetric pattern.
+    std::vector<Eigen::Triplet<double>> full;
+    for (int i = 0; i < size_; ++i) full.emplace_back(i, i, 1.0);
+    for (const auto& c : columns)
+      for (int r1 : c)
+        for (int r2 : c) full.emplace_back(r1, r2, 1.0);
+    SparseMatrix pattern(size_, size_);
+    pattern.setFromTriplets(full.begin(), full.end());
+    Eigen::AMDOrdering<int> amd;
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> inverse_permutation;
+    amd(pattern, inverse_permutation);
+    new_index_.resize(size_);
+    if (inverse_permutation.size() == size_) {
+      // The ordering returns the inverse permutation: new index of old i is P(i).
+      for (int i = 0; i < size_; ++i) new_index_[inverse_permutation.indices()[i]] = i;
+    } else {
+      for (int i = 0; i < size_; ++i) new_index_[i] = i;
+    }
+
+    // Permuted upper triangle.
+    std::vector<Eigen::Triplet<double>> upper;
+    upper.reserve(full.size() / 2 + size_);
+    for (const auto& t : full) {
+      const int a = new_index_[t.row()], b = new_index_[t.col()];
+      if (a <= b) upper.emplace_back(a, b, 0.0);
+    }
+    matrix_.resize(size_, size_);
+    matrix_.setFromTriplets(upper.begin(), upper.end());
+    matrix_.makeCompressed();
+
+    auto value_index = [&](int i, int j) {
+      int a = new_index_[i], b = new_index_[j];
+      if (a > b) std::swap(a, b);
+      const int* inner = matrix_.innerIndexPtr();
+      const int* begin = inner + matrix_.outerIndexPtr()[b];
+      const int* end = inner + matrix_.outerIndexPtr()[b + 1];
+      return static_cast<int>(std::lower_bound(begin, end, a) - inner);
+    };
+    diagonal_index_.resize(size_);
+    for (int i = 0; i < size_; ++i) diagonal_index_[i] = value_index(i, i);
+    column_offset_.resize(columns.size() + 1);
+    column_offset_[0] = 0;
+    for (std::size_t k = 0; k < columns.size(); ++k) {
+      const auto& c = columns[k];
+      for (std::size_t p = 0; p < c.size(); ++p)
+        for (std::size_t p2 = 0; p2 <= p; ++p2) plan_.push_back(value_index(c[p], c[p2]));
+      column_offset_[k + 1] = static_cast<int>(plan_.size());
+    }
+
+    ldlt_.analyzePattern(matrix_);
+    permuted_rhs_.resize(size_);
+    permuted_solution_.resize(size_);
+  }
+
+  int size() const { return size_; }
+
+  // Assembles with weight wq on every J column, ws[e] on force column e and the
+  // normalisation entry norm_weight, then adds lambda_relative times the mean
+  // diagonal. Returns false when the factorization fails.
+  bool assemble_and_factorize(const SparseMatrix& J, double wq, const SparseMatrix& A, const Eigen::VectorXd& ws,
+                              double norm_weight, double lambda_relative) {
+    double* values = matrix_.valuePtr();
+    std::fill(values, values + matrix_.nonZeros(), 0.0);
+    const int* plan = plan_.data();
+    for (int k = 0; k < positions_; ++k) {
+      const double* v = J.valuePtr() + J.outerIndexPtr()[k];
+      const int count = J.outerIndexPtr()[k + 1] - J.outerIndexPtr()[k];
+      const int* pl = plan + column_offset_[k];
+      for (int p = 0; p < count; ++p) {
+        const double wv = wq * v[p];
+        for (int p2 = 0; p2 <= p; ++p2) values[*pl++] += wv * v[p2];
+      }
+    }
+    for (int e = 0; e < static_cast<int>(A.cols()); ++e) {
+      const double w = ws[e];
+      if (w == 0.0) continue;
+      const double* v = A.valuePtr() + A.outerIndexPtr()[e];
+      const int count = A.outerIndexPtr()[e + 1] - A.outerIndexPtr()[e];
+      const int* pl = plan + column_offset_[positions_ + e];
+      for (int p = 0; p < count; ++p) {
+        const double wv = w * v[p];
+        for (int p2 = 0; p2 <= p; ++p2) values[*pl++] += wv * v[p2];
+      }
+      if (has_norm_entry_[e]) {
+        const double wn = w * norm_weight;
+        for (int p2 = 0; p2 < count; ++p2) values[*pl++] += wn * v[p2];
+        values[*pl++] += wn * norm_weight;
+      }
+    }
+    double trace = 0.0;
+    for (int i = 0; i < size_; ++i) trace += values[diagonal_index_[i]];
+    const double lambda = lambda_relative * (trace > 0.0 ? trace / size_ : 1.0);
+    for (int i = 0; i < size_; ++i) values[diagonal_index_[i]] += lambda;
+    ldlt_.factorize(matrix_);
+    if (ldlt_.info() != Eigen::Success) return false;
+    return (ldlt_.vectorD().array() > 0.0).all();
+  }
+
+  // y = N^{-1} rhs, both in the original numbering.
+  void solve(const Eigen::VectorXd& rhs, Eigen::VectorXd& y) {
+    for (int i = 0; i < size_; ++i) permuted_rhs_[new_index_[i]] = rhs[i];
+    permuted_solution_ = ldlt_.solve(permuted_rhs_);
+    for (int i = 0; i < size_; ++i) y[i] = permuted_solution_[new_index_[i]];
+  }
+
+ private:
+  int positions_, rows_, size_;
+  std::vector<char> has_norm_entry_;
+  std::vector<int> new_index_, diagonal_index_, column_offset_, plan_;
+  SparseMatrix matrix_;
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, Eigen::NaturalOrdering<int>> ldlt_;
+  Eigen::VectorXd permuted_rhs_, permuted_solution_;
+};
+
+// One solve of one connected part: the state of Algorithm 1.
+class PartSolve {
+ public:
+  PartSolve(const Structure& part, const SolveOptions& options, const AlternatingOptions& alt, bool gauss_newton)
+      : part_(part),
+        options_(options),
+        alt_(alt),
+        gauss_newton_(gauss_newton),
+        recorder_(options.time_limit_s),
+        length_scale_(part.mean_element_length()),
+        scale_(make_force_scale(part, alt.margin > 0.0 ? alt.margin : options.margin_fraction)),
+        eq_(part),
+        qp_options_(make_qp_options(alt)),
+        qp_(eq_, scale_, qp_options_) {
+    eq_.set_positions(part.positions);
+    const int nq = eq_.num_equations(), m = eq_.num_elements();
+    q0_.resize(nq);
+    for (int node : eq_.free_nodes().free_nodes())
+      q0_.segment<3>(3 * eq_.free_nodes().slot(node)) = part.positions.col(node);
+    q_ = q0_;
+    q_start_.resize(nq);
+    q_trial_.resize(nq);
+    f_.resize(nq);
+    f_trial_.resize(nq);
+    f_scratch_.resize(nq);
+    g_.resize(nq);
+    d_.resize(nq);
+    jd_.resize(nq);
+    dq_.resize(nq);
+    sigma_.resize(m);
+    sigma_trial_.resize(m);
+    dsigma_.resize(m);
+    force_weight_.resize(m);
+    const Eigen::VectorXd& fg = eq_.gravity_load();
+    for (int k = 0; k < eq_.free_nodes().num_free(); ++k)
+      gravity_scale_ = std::max(gravity_scale_, fg.segment<3>(3 * k).norm());
+  }
+
+  SolveResult run();
+
+ private:
+  static StressQpOptions make_qp_options(const AlternatingOptions& alt) {
+    StressQpOptions o;
+    o.mu = alt.mu;
+    return o;
+  }
+
+  // Eq. 4's objective at the current geometry; writes f.
+  double objective(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const {
+    eq_.residual(sigma, f);
+    double phi = f.squaredNorm();
+    if (scale_.has_normalisation()) {
+      const double r = scale_.normalisation_row.dot(sigma) - scale_.normalisation_target;
+      phi += qp_options_.normalisation_weight * qp_options_.normalisation_weight * r * r;
+    }
+    return phi;
+  }
+
+  // Stress QP at the current geometry warm-started from sigma (in/out); keeps
+  // the warm start when the QP result is not better, so Eq. 4's objective never
+  // increases. Writes f and returns the objective.
+  double solve_stress(Eigen::VectorXd& sigma, Eigen::VectorXd& f) {
+    const StressQpResult r = qp_.solve(sigma);
+    ++evaluations_;
+    const double phi_warm = objective(sigma, f);
+    if (r.sigma.size() != sigma.size() || !r.sigma.allFinite()) return phi_warm;
+    const double phi_qp = objective(r.sigma, f_scratch_);
+    if (!(phi_qp <= phi_warm)) return phi_warm;
+    sigma = r.sigma;
+    f.swap(f_scratch_);
+    return phi_qp;
+  }
+
+  double node_residual(const Eigen::VectorXd& f) const {
+    double worst = 0.0;
+    for (int k = 0; k < eq_.free_nodes().num_free(); ++k) worst = std::max(worst, f.segment<3>(3 * k).norm());
+    return worst;
+  }
+
+  double relative_residual(double residual, const Eigen::VectorXd& sigma) const {
+    const double load = gravity_scale_ > 0.0 ? gravity_scale_ : sigma.cwiseAbs().maxCoeff();
+    return load > 0.0 ? residual / load : residual;
+  }
+
+  void faithful_phase();
+  void gauss_newton_phase();
+  SolveResult finish(Status status, std::string message);
+
+  const Structure& part_;
+  const SolveOptions& options_;
+  const AlternatingOptions& alt_;
+  bool gauss_newton_;
+  TraceRecorder recorder_;
+  double length_scale_;
+  ForceScale scale_;
+  Equilibrium eq_;
+  StressQpOptions qp_options_;
+  StressQp qp_;
+  double gravity_scale_ = 0.0;
+
+  Eigen::VectorXd q0_, q_, q_start_, q_trial_, f_, f_trial_, f_scratch_, g_, d_, jd_, dq_;
+  Eigen::VectorXd sigma_, sigma_trial_, dsigma_, force_weight_, rhs_, y_;
+  std::unique_ptr<NormalMatrix> normal_;
+  double phi_ = 0.0;
+  double last_move_ = kInfinity;  // |q| change of the last accepted position phase
+  bool stalled_ = false;
+  int evaluations_ = 0;
+  double lambda_relative_ = 0.0;
+  bool sigma_is_qp_optimal_ = true;
+  bool trial_is_qp_optimal_ = true;
+  double trust_radius_ = 0.0;
+};
+
+// Algorithm 1, lines 3-9, at fixed sigma; then line 2 of the next iteration.
+void PartSolve::faithful_phase() {
+  const double length = length_scale_;
+  q_start_ = q_;
+  double budget = alt_.gamma * length;
+  for (int i = 0; budget > 0.0 && i < alt_.i_max; ++i) {
+    const SparseMatrix& J = eq_.jacobian_positions(sigma_);
+    g_.noalias() = J.transpose() * f_;
+    const double gradient_norm = g_.norm();
+    if (!(gradient_norm > 0.0) || !std::isfinite(gradient_norm)) break;
+    d_ = -g_ / gradient_norm;  // Eq. 6 with the descent sign: dx = gamma_acc * d
+    jd_.noalias() = J * d_;
+    const double curvature = jd_.squaredNorm();
+    // d(|f|^2)/ds = 2 f^T J d = -2 |g|: the linearised minimiser is |g| / |J d|^2.
+    double step = budget;
+    if (curvature > 0.0) step = std::min(step, gradient_norm / curvature);
+    bool accepted = false;
+    double phi_trial = phi_;
+    for (int halving = 0; halving < 60; ++halving) {
+      q_trial_ = q_ + step * d_;
+      eq_.set_free_coordinates(q_trial_);
+      ++evaluations_;
+      phi_trial = objective(sigma_, f_trial_);
+      if (phi_trial <= phi_ - 1e-4 * 2.0 * step * gradient_norm) {
+        accepted = true;
+        break;
+      }
+      step *= 0.5;
+    }
+    if (!accepted) {
+      eq_.set_free_coordinates(q_);
+      break;
+    }
+    q_.swap(q_trial_);
+    f_.swap(f_trial_);
+    phi_ = phi_trial;
+    budget -= step;
+  }
+  last_move_ = (q_ - q_start_).norm();
+  stalled_ = last_move_ < alt_.epsilon_cvg * length;
+  phi_ = solve_stress(sigma_, f_);
+}
+
+// One damped Gauss-Newton trial in z = (q, sigma), then the stress QP.
+void PartSolve::gauss_newton_phase() {
+  const double L = length_scale_, F0 = scale_.reference_force;
+  const int nq = eq_.num_equations(), m = eq_.num_elements();
+  const SparseMatrix& J = eq_.jacobian_positions(sigma_);
+  const SparseMatrix& A = eq_.A();
+  const bool norm = scale_.has_normalisation();
+  const double wn = qp_options_.normalisation_weight;
+  if (!normal_) {
+    normal_ = std::make_unique<NormalMatrix>(J, A, norm ? &scale_.normalisation_row : nullptr);
+    rhs_.resize(normal_->size());
+    y_.resize(normal_->size());
+    lambda_relative_ = alt_.lambda;
+    trust_radius_ = alt_.max_step * L;
+  }
+  // Elements at a sign bound keep their force in this step (the QP may free them).
+  const double at_bound = 1e-9 * F0;
+  for (int e = 0; e < m; ++e) {
+    const bool active = sigma_[e] - scale_.lower[e] <= at_bound || scale_.upper[e] - sigma_[e] <= at_bound;
+    force_weight_[e] = active && !alt_.move_bound_forces ? 0.0 : alt_.sigma_weight;
+  }
+  const double wq = (L / F0) * (L / F0);
+  rhs_.head(nq) = -f_ / F0;
+  if (norm) rhs_[nq] = -wn * (scale_.normalisation_row.dot(sigma_) - scale_.normalisation_target) / F0;
+
+  bool factorized = false;
+  for (int attempt = 0; attempt < 8 && !factorized; ++attempt) {
+    factorized = normal_->assemble_and_factorize(J, wq, A, force_weight_, wn, lambda_relative_);
+    if (!factorized) lambda_relative_ = std::max(1e-12, lambda_relative_ * 100.0);
+  }
+  if (!factorized) {
+    stalled_ = true;
+    return;
+  }
+  normal_->solve(rhs_, y_);
+  // dq = L dq_hat = (L^2 / F0) J^T y;  dsigma = F0 dsigma_hat = F0 ws (A^T y + wn c y_n).
+  dq_.noalias() = J.transpose() * y_.head(nq);
+  dq_ *= L * L / F0;
+  dsigma_.noalias() = A.transpose() * y_.head(nq);
+  if (norm) dsigma_ += (wn * y_[nq]) * scale_.normalisation_row;
+  dsigma_ = (F0 * dsigma_.array() * force_weight_.array()).matrix();
+
+  double largest_move = 0.0;
+  for (int k = 0; k < nq / 3; ++k) largest_move = std::max(largest_move, dq_.segment<3>(3 * k).norm());
+  if (!std::isfinite(largest_move) || !dsigma_.allFinite()) {
+    lambda_relative_ *= 100.0;
+    stalled_ = lambda_relative_ > 1e12;
+    return;
+  }
+  const double step = largest_move > trust_radius_ ? trust_radius_ / largest_move : 1.0;
+  q_trial_ = q_ + step * dq_;
+  sigma_trial_ = sigma_ + step * dsigma_;
+  const bool crosses_bound =
+      (sigma_trial_.array() < scale_.lower.array()).any() || (sigma_trial_.array() > scale_.upper.array()).any();
+  eq_.set_free_coordinates(q_trial_);
+  double phi_trial;
+  // f is linear in sigma, so a joint step that keeps every sign needs no QP;
+  // the QP restores the bounds (and frees elements held at them) otherwise.
+  if (crosses_bound) sigma_trial_ = sigma_trial_.cwiseMax(scale_.lower).cwiseMin(scale_.upper);
+  if ((crosses_bound && alt_.qp_on_crossing) || alt_.qp_every_step || alt_.sigma_weight == 0.0) {
+    phi_trial = solve_stress(sigma_trial_, f_trial_);
+    trial_is_qp_optimal_ = true;
+  } else {
+    ++evaluations_;
+    phi_trial = objective(sigma_trial_, f_trial_);
+    trial_is_qp_optimal_ = false;
+  }
+  if (phi_trial < phi_) {
+    last_move_ = step * std::sqrt(dq_.squaredNorm());
+    q_.swap(q_trial_);
+    sigma_.swap(sigma_trial_);
+    f_.swap(f_trial_);
+    phi_ = phi_trial;
+    sigma_is_qp_optimal_ = trial_is_qp_optimal_;
+    lambda_relative_ = std::max(1e-15, lambda_relative_ * 0.1);
+    if (step < 1.0) trust_radius_ = std::min(2.0 * trust_radius_, alt_.max_step * L);
+    stalled_ = last_move_ < alt_.epsilon_cvg * L && sigma_is_qp_optimal_;
+    return;
+  }
+  eq_.set_free_coordinates(q_);
+  if (!sigma_is_qp_optimal_) {
+    // Re-optimise the forces at the current geometry before damping further.
+    phi_ = solve_stress(sigma_, f_);
+    sigma_is_qp_optimal_ = true;
+    return;
+  }
+  lambda_relative_ *= 10.0;
+  trust_radius_ = 0.5 * std::min(trust_radius_, step * largest_move);
+  stalled_ = lambda_relative_ > 1e12 || trust_radius_ < alt_.epsilon_cvg * L;
+}
+
+SolveResult PartSolve::finish(Status status, std::string message) {
+  SolveResult r;
+  r.positions = part_.positions;
+  for (int node : eq_.free_nodes().free_nodes())
+    r.positions.col(node) = q_.segment<3>(3 * eq_.free_nodes().slot(node));
+  r.forces = sigma_;
+  const Verification v = verify(part_, r.positions, r.forces, options_.tolerance);
+  r.stats.iterations = static_cast<int>(recorder_.trace().size()) - 1;
+  r.stats.seconds = recorder_.seconds();
+  r.stats.residual = v.residual;
+  r.stats.relative_residual = v.relative_residual;
+  r.stats.geometry_change = v.geometry_change;
+  if (status == Status::Converged && !v.ok) {
+    status = v.all_finite ? Status::MaxIterations : Status::NumericalError;
+    message = "the independent verification rejected the result:";
+    for (const auto& p : v.problems) message += " " + p;
+  }
+  r.status = status;
+  r.message = std::move(message);
+  r.trace = std::move(recorder_.trace());
+  return r;
+}
+
+SolveResult PartSolve::run() {
+  // Line 2 of the first iteration: a cold stress solve.
+  {
+    const StressQpResult r = qp_.solve();
+    ++evaluations_;
+    sigma_ = r.sigma;
+    if (sigma_.size() != eq_.num_elements()) {
+      sigma_ = reference_forces(part_, scale_);
+      return finish(Status::NumericalError, "the stress QP returned no forces");
+    }
+    phi_ = objective(sigma_, f_);
+  }
+  // Internal forces sum to zero, so without supports a net weight can never be balanced.
+  if (eq_.has_gravity() && eq_.free_nodes().num_free() == part_.num_nodes()) {
+    Eigen::Vector3d weight = Eigen::Vector3d::Zero();
+    for (int k = 0; k < eq_.free_nodes().num_free(); ++k) weight += eq_.gravity_load().segment<3>(3 * k);
+    if (weight.norm() > 0.0) {
+      TracePoint p;
+      p.residual = node_residual(f_);
+      p.relative_residual = relative_residual(p.residual, sigma_);
+      p.objective = phi_;
+      p.evaluations = evaluations_;
+      recorder_.record(p);
+      return finish(Status::Infeasible, "a gravity load on a part without fixed nodes cannot be balanced");
+    }
+  }
+
+  for (int iteration = 0;; ++iteration) {
+    TracePoint p;
+    p.iteration = iteration;
+    p.evaluations = evaluations_;
+    p.residual = node_residual(f_);
+    p.relative_residual = relative_residual(p.residual, sigma_);
+    p.geometry_change = (q_ - q0_).norm();
+    p.objective = phi_;
+    recorder_.record(p);
+    if (!std::isfinite(phi_) || !std::isfinite(p.relative_residual) || !q_.allFinite())
+      return finish(Status::NumericalError, "non-finite residual or positions");
+    if (p.relative_residual <= options_.tolerance)
+      return finish(Status::Converged, iteration == 0 ? "in equilibrium at the input geometry"
+                                                      : "converged after " + std::to_string(iteration) +
+                                                            " outer iterations");
+    if (stalled_)
+      return finish(Status::Infeasible, "stalled at a local minimum of Eq. 4 with relative residual " +
+                                            std::to_string(p.relative_residual));
+    if (iteration >= options_.max_iterations)
+      return finish(Status::MaxIterations, "outer iteration budget spent");
+    if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent");
+    if (gauss_newton_)
+      gauss_newton_phase();
+    else
+      faithful_phase();
+  }
+}
+
+}  // namespace
+
+AlternatingOptions read_alternating_options(const SolveOptions& options, bool gauss_newton) {
+  BackendOptionReader reader(options.backend_options);
+  AlternatingOptions o;
+  o.epsilon_cvg = reader.number("epsilon_cvg", o.epsilon_cvg, 0.0);
+  o.mu = reader.number("mu", o.mu, -1e-300);
+  o.margin = reader.number("margin", o.margin, -1e-300);
+  if (o.mu < 0.0) throw InputError("command line", "--option mu", "must be >= 0");
+  if (o.margin < 0.0 || o.margin >= 1.0) throw InputError("command line", "--option margin", "must be in (0, 1)");
+  if (gauss_newton) {
+    o.max_step = reader.number("max_step", o.max_step, 0.0);
+    o.sigma_weight = reader.number("sigma_weight", o.sigma_weight, -1e-300);
+    o.qp_every_step = reader.boolean("qp_every_step", o.qp_every_step);
+    o.qp_on_crossing = reader.boolean("qp_on_crossing", o.qp_on_crossing);
+    o.move_bound_forces = reader.boolean("move_bound_forces", o.move_bound_forces);
+    o.lambda = reader.number("lambda", o.lambda, 0.0);
+    if (o.sigma_weight < 0.0) throw InputError("command line", "--option sigma_weight", "must be >= 0");
+  } else {
+    o.gamma = reader.number("gamma", o.gamma, 0.0);
+    o.i_max = reader.integer("i_max", o.i_max, 1);
+  }
+  reader.reject_unknown(gauss_newton ? "alternating-gn" : "alternating");
+  return o;
+}
+
+void AlternatingSolver::check_options(const SolveOptions& options) const {
+  read_alternating_options(options, gauss_newton_);
+}
+
+SolveResult AlternatingSolver::solve_part(const Structure& part, const SolveOptions& options) const {
+  return solve_part(part, options, read_alternating_options(options, gauss_newton_));
+}
+
+SolveResult AlternatingSolver::solve_part(const Structure& part, const SolveOptions& options,
+                                          const AlternatingOptions& alternating) const {
+  PartSolve solve(part, options, alternating, gauss_newton_);
+  return solve.run();
+}
+
+std::unique_ptr<Solver> make_alternating_solver() { return std::make_unique<AlternatingSolver>(false); }
+std::unique_ptr<Solver> make_alternating_gn_solver() { return std::make_unique<AlternatingSolver>(true); }
+
+}  // namespace tensegrity

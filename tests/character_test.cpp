@@ -1,0 +1,160 @@
+// Characters: the benchmark animals build with the documented counts, keep
+// block and link ids, reject bad files clearly, and form-find into verified
+// tensegrities under gravity with their feet fixed.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "model/character.hpp"
+#include "model/errors.hpp"
+#include "model/scene_io.hpp"
+#include "model/verify.hpp"
+#include "solvers/solver.hpp"
+
+namespace tensegrity {
+namespace {
+
+const std::string kCharacters = std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/";
+
+struct Expected {
+  std::string name;
+  int blocks, face_links, struts, cables;
+};
+// Struts match the paper (duck 41, scorpion 83, puppy 51); cables are fewer
+// because our templates carry the minimal cable sets (see data/blocks/README.md).
+const std::vector<Expected> kExpected = {
+    {"duck", 5, 4, 41, 174},
+    {"scorpion", 12, 11, 83, 420},
+    {"puppy", 9, 8, 51, 240},
+};
+
+TEST(Character, BenchmarkAnimalsHaveTheirCounts) {
+  for (const auto& x : kExpected) {
+    SCOPED_TRACE(x.name);
+    const BuiltCharacter c = build_character_file(kCharacters + x.name + ".character.json");
+    EXPECT_EQ(c.counts.blocks, x.blocks);
+    EXPECT_EQ(c.counts.face_links, x.face_links);
+    EXPECT_EQ(c.counts.struts, x.struts);
+    EXPECT_EQ(c.counts.cables, x.cables);
+    EXPECT_GT(c.counts.fixed_nodes, 0);
+    EXPECT_TRUE(c.structure.has_gravity());
+    // Masses follow from the densities: total = sum density * length.
+    double expected_mass = 0.0;
+    for (const auto& e : c.structure.elements)
+      expected_mass += (e.kind == ElementKind::Strut ? 0.03 : 0.002) *
+                       (c.structure.positions.col(e.b) - c.structure.positions.col(e.a)).norm();
+    EXPECT_NEAR(c.counts.mass, expected_mass, 1e-12);
+    std::printf("%-9s blocks %2d  face links %2d  struts %3d  cables %3d  nodes %3d  fixed %2d  mass %.4f kg\n",
+                x.name.c_str(), c.counts.blocks, c.counts.face_links, c.counts.struts, c.counts.cables,
+                c.counts.nodes, c.counts.fixed_nodes, c.counts.mass);
+  }
+}
+
+TEST(Character, NodesAndElementsKeepBlockAndLinkIds) {
+  const BuiltCharacter c = build_character_file(kCharacters + "duck.character.json");
+  const Structure& s = c.structure;
+  int link_struts = 0, body_nodes = 0;
+  for (int e = 0; e < s.num_elements(); ++e) {
+    const auto& x = s.element_extra[e];
+    EXPECT_TRUE(x.contains("block") != x.contains("link"));
+    if (x.contains("link") && s.elements[e].kind == ElementKind::Strut) ++link_struts;
+  }
+  for (int i = 0; i < s.num_nodes(); ++i)
+    if (s.node_extra[i].value("block", "") == "body") ++body_nodes;
+  EXPECT_EQ(link_struts, 4);
+  EXPECT_EQ(body_nodes, 21);
+  // The ids survive the scene file.
+  const std::string path = testing::TempDir() + "/duck.scene.json";
+  write_scene_file(s, path);
+  const Structure back = read_scene_file(path);
+  ASSERT_EQ(back.num_elements(), s.num_elements());
+  EXPECT_EQ(back.element_extra.back().value("link", ""), "neck-top");
+  EXPECT_EQ(back.node_extra[0].value("block", ""), "body");
+}
+
+TEST(Character, ChainFamilyCounts) {
+  const BlockLibrary lib = BlockLibrary::standard();
+  for (int n : {2, 10, 200}) {
+    const BuiltCharacter c = build_character(make_chain_character(n), "chain", lib);
+    EXPECT_EQ(c.counts.struts, 6 * n + (n - 1));
+    EXPECT_EQ(c.counts.cables, 24 * n + 12 * (n - 1));
+    EXPECT_EQ(c.counts.fixed_nodes, 3 * n);
+  }
+  EXPECT_THROW(make_chain_character(1), std::invalid_argument);
+  EXPECT_THROW(make_chain_character(201), std::invalid_argument);
+}
+
+std::string expect_input_error(const nlohmann::json& j, const std::string& expected_item) {
+  const std::string path = testing::TempDir() + "/bad.character.json";
+  std::ofstream(path) << j.dump();
+  try {
+    build_character_file(path, std::string(TENSEGRITY_SOURCE_DIR) + "/data/blocks");
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.item(), expected_item) << e.what();
+    return e.reason();
+  }
+  ADD_FAILURE() << "no InputError for " << expected_item;
+  return "";
+}
+
+TEST(Character, BadFilesNameFileItemAndReason) {
+  const nlohmann::json good = read_json_file(kCharacters + "duck.character.json");
+  auto bad = good;
+  bad["blocks"][1]["type"] = "teapot";
+  EXPECT_NE(expect_input_error(bad, "blocks[1].type").find("unknown block type 'teapot'"), std::string::npos);
+  bad = good;
+  bad["blocks"][2]["id"] = "body";
+  expect_input_error(bad, "blocks[2].id");
+  bad = good;
+  bad["links"][3]["a"]["face"] = "nowhere";
+  expect_input_error(bad, "links[3].a.face");
+  bad = good;
+  bad["links"][0]["b"]["block"] = "ghost";
+  expect_input_error(bad, "links[0].b.block");
+  bad = good;
+  bad["links"][0]["type"] = "glue";
+  expect_input_error(bad, "links[0].type");
+  bad = good;
+  bad["blocks"][0]["scale"] = -1.0;
+  expect_input_error(bad, "blocks[0].scale");
+  bad = good;
+  bad["strut_density"] = -0.1;
+  expect_input_error(bad, "strut_density");
+  bad = good;
+  bad["ground"][0]["lowest"] = 99;
+  expect_input_error(bad, "ground[0].lowest");
+  bad = good;
+  bad["format"] = "tensegrity-scene";
+  expect_input_error(bad, "format");
+}
+
+// Form finding with every registered backend that we can rely on: the result
+// verifies under gravity with the feet fixed.
+TEST(Character, AnimalsFormFindIntoVerifiedTensegrities) {
+  std::vector<std::string> backends;
+  for (const auto& name : solver_names())
+    if (name == "alternating-gn" || name == "ipopt") backends.push_back(name);
+  ASSERT_FALSE(backends.empty());
+  for (const auto& x : kExpected) {
+    const BuiltCharacter c = build_character_file(kCharacters + x.name + ".character.json");
+    for (const auto& backend : backends) {
+      SCOPED_TRACE(x.name + " / " + backend);
+      const auto solver = make_solver(backend);
+      SolveOptions options;
+      options.time_limit_s = 60.0;
+      const SolveResult r = solve_scene(*solver, c.structure, options);
+      EXPECT_EQ(r.status, Status::Converged) << r.message;
+      const Verification v = verify(c.structure, r.positions, r.forces, 1e-8);
+      EXPECT_TRUE(v.ok) << (v.problems.empty() ? "" : v.problems.front());
+      EXPECT_EQ(v.moved_fixed_nodes, 0);
+      EXPECT_GT(v.load_scale, 0.0);  // gravity acts on free nodes
+      std::printf("%-9s %-15s relative residual %.2e  geometry change %.4f m  %.2f s\n", x.name.c_str(),
+                  backend.c_str(), v.relative_residual, v.geometry_change, r.stats.seconds);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace tensegrity

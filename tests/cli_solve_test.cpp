@@ -1,0 +1,122 @@
+// End-to-end: the `tensegrity` program as outside scripts use it (CONTRACT.md).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "model/scene_io.hpp"
+#include "scene_fixtures.hpp"
+#include "solvers/solver.hpp"
+
+namespace tensegrity {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Run {
+  int status;
+  std::string out;
+};
+
+// Runs the program with a shell command line; returns exit status and stdout.
+Run run(const std::string& args) {
+  const std::string cmd = std::string(TENSEGRITY_BINARY) + " " + args + " 2>/dev/null";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  const int st = pclose(p);
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+}
+
+class CliSolve : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fs::temp_directory_path() / ("tensegrity-cli-" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  std::string write_scene(const Structure& s) {
+    const std::string path = (dir / (s.name + ".scene.json")).string();
+    write_scene_file(s, path);
+    return path;
+  }
+  fs::path dir;
+};
+
+TEST_F(CliSolve, SolversListsEveryRegisteredBackend) {
+  const Run r = run("solvers");
+  EXPECT_EQ(r.status, 0);
+  std::string expected;
+  for (const auto& n : solver_names()) expected += n + "\n";
+  EXPECT_EQ(r.out, expected);
+}
+
+TEST_F(CliSolve, ForcesConvergedOnAPrismInfeasibleWhenTwisted) {
+  const std::string good = write_scene(testing::prism(5));
+  const std::string sol = (dir / "good.json").string();
+  EXPECT_EQ(run("forces " + good + " --out " + sol).status, 0);
+  EXPECT_EQ(run("check " + good + " " + sol).status, 0);
+  const auto j = nlohmann::json::parse(std::ifstream(sol));
+  EXPECT_EQ(j["status"], "converged");
+  EXPECT_LE(j["stats"]["relative_residual"].get<double>(), 1e-12);
+  EXPECT_EQ(j["stats"]["geometry_change"].get<double>(), 0.0);
+
+  const std::string bad = write_scene(testing::prism(5, 5.0));
+  const std::string sol2 = (dir / "bad.json").string();
+  EXPECT_EQ(run("forces " + bad + " --out " + sol2).status, 1);
+  const auto j2 = nlohmann::json::parse(std::ifstream(sol2));
+  EXPECT_EQ(j2["status"], "infeasible");
+  EXPECT_GE(j2["stats"]["relative_residual"].get<double>(), 1e-3);
+  EXPECT_EQ(run("check " + bad + " " + sol2).status, 1);
+}
+
+TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
+  const std::string scene = write_scene(testing::perturbed(testing::prism(6, 0.0, true), 0.05, 1u));
+  for (const auto& name : solver_names()) {
+    const std::string sol = (dir / (name + ".json")).string();
+    const std::string trace = (dir / (name + ".csv")).string();
+    EXPECT_EQ(run("solve " + scene + " --solver " + name + " --out " + sol + " --trace " + trace).status, 0)
+        << name;
+    EXPECT_EQ(run("check " + scene + " " + sol).status, 0) << name;
+    const auto j = nlohmann::json::parse(std::ifstream(sol));
+    for (const char* key : {"format", "version", "status", "positions", "forces", "stats"})
+      EXPECT_TRUE(j.contains(key)) << name << " " << key;
+    for (const char* key : {"iterations", "seconds", "residual", "relative_residual", "geometry_change"})
+      EXPECT_TRUE(j["stats"].contains(key)) << name << " " << key;
+    EXPECT_EQ(j["solver"], name);
+    std::ifstream csv(trace);
+    std::string header;
+    std::getline(csv, header);
+    EXPECT_EQ(header.rfind("seconds,", 0), 0u) << name;
+  }
+}
+
+TEST_F(CliSolve, SolveToStandardOutputAndTamperedSolutionFailsTheCheck) {
+  const std::string scene = write_scene(testing::prism(4, 10.0));
+  const Run r = run("solve " + scene);
+  ASSERT_EQ(r.status, 0);
+  auto j = nlohmann::json::parse(r.out);
+  j["forces"][0] = -j["forces"][0].get<double>();  // a strut now pulls
+  const std::string sol = (dir / "tampered.json").string();
+  std::ofstream(sol) << j.dump();
+  EXPECT_EQ(run("check " + scene + " " + sol).status, 1);
+}
+
+TEST_F(CliSolve, BadToleranceAndUnknownSolverAreUsageErrors) {
+  const std::string scene = write_scene(testing::prism(3));
+  const std::string out = (dir / "never.json").string();
+  for (const char* args : {" --tol 0", " --tol -1", " --tol nan", " --tol inf", " --solver nosuch",
+                           " --option nosuchkey=1"}) {
+    EXPECT_EQ(run("solve " + scene + " --out " + out + args).status, 2) << args;
+    EXPECT_FALSE(fs::exists(out)) << args;
+  }
+}
+
+}  // namespace
+}  // namespace tensegrity

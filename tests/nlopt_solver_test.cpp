@@ -1,0 +1,200 @@
+// The `nlopt` backend: reference prisms and octahedra (exact, perturbed,
+// twisted, with gravity and fixed nodes) converge and verify; its algorithms,
+// options, status mapping and trace behave as documented.
+#include "solvers/nlopt_solver.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "model/errors.hpp"
+#include "model/verify.hpp"
+#include "scene_fixtures.hpp"
+#include "solvers/solver.hpp"
+
+namespace tensegrity {
+namespace {
+
+SolveOptions options_with(std::map<std::string, std::string> backend = {}) {
+  SolveOptions o;
+  o.time_limit_s = 30.0;
+  o.backend_options = std::move(backend);
+  return o;
+}
+
+void expect_verified_equilibrium(const Structure& scene, const SolveResult& r) {
+  ASSERT_EQ(r.status, Status::Converged) << scene.name << ": " << r.message;
+  const Verification v = verify(scene, r.positions, r.forces, 1e-8);
+  EXPECT_TRUE(v.ok) << scene.name;
+  EXPECT_LE(v.relative_residual, 1e-8) << scene.name;
+  EXPECT_EQ(v.wrong_signs, 0) << scene.name;
+  EXPECT_NEAR(r.stats.geometry_change, v.geometry_change, 1e-12 * (1.0 + v.geometry_change));
+}
+
+double mean_cable_force(const Structure& s, const Eigen::VectorXd& forces) {
+  double sum = 0.0;
+  int cables = 0;
+  for (int e = 0; e < s.num_elements(); ++e)
+    if (s.elements[e].kind == ElementKind::Cable) sum += forces[e], ++cables;
+  return sum / cables;
+}
+
+std::vector<Structure> reference_scenes() {
+  std::vector<Structure> v = testing::backend_suite_scenes();
+  v.push_back(testing::prism(3, 5.0));
+  v.push_back(testing::prism(6, 15.0, true));
+  v.push_back(testing::perturbed(testing::prism(5), 0.01, 21u));
+  v.push_back(testing::perturbed(testing::octahedron(true), 0.01, 22u));
+  return v;
+}
+
+TEST(NloptSolver, IsRegisteredUnderItsName) {
+  const auto names = solver_names();
+  EXPECT_NE(std::find(names.begin(), names.end(), "nlopt"), names.end());
+  EXPECT_EQ(make_solver("nlopt")->name(), "nlopt");
+}
+
+TEST(NloptSolver, ReferenceScenesConvergeAndVerify) {
+  const NloptSolver solver;
+  for (const Structure& scene : reference_scenes()) {
+    const SolveResult r = solve_scene(solver, scene, options_with());
+    expect_verified_equilibrium(scene, r);
+    EXPECT_GT(r.stats.geometry_change, 0.0) << scene.name;
+    if (!scene.has_gravity()) {
+      EXPECT_NEAR(mean_cable_force(scene, r.forces), 1.0, 1e-8) << scene.name;
+    }
+  }
+}
+
+TEST(NloptSolver, ExactPrismStaysPutWithAnalyticForceDensities) {
+  const NloptSolver solver;
+  for (int n : {3, 5, 8}) {
+    const Structure scene = testing::prism(n);
+    SolveOptions o = options_with();
+    o.skip_if_in_equilibrium = false;  // the backend itself must not move it
+    const SolveResult r = solve_scene(solver, scene, o);
+    expect_verified_equilibrium(scene, r);
+    EXPECT_LE(r.stats.geometry_change, 1e-10);
+    // Force densities (force / length): struts -1, verticals 1, rings 1/(2 sin(pi/n)).
+    auto density = [&](int e) {
+      const auto& el = scene.elements[e];
+      return r.forces[e] / (scene.positions.col(el.b) - scene.positions.col(el.a)).norm();
+    };
+    const double vertical = density(n);
+    EXPECT_NEAR(density(0) / vertical, -1.0, 1e-6) << n;
+    EXPECT_NEAR(density(2 * n) / vertical, 1.0 / (2.0 * std::sin(M_PI / n)), 1e-6) << n;
+    EXPECT_NEAR(density(3 * n) / vertical, 1.0 / (2.0 * std::sin(M_PI / n)), 1e-6) << n;
+  }
+}
+
+TEST(NloptSolver, EveryAugmentedLagrangianVariantReachesTheSameGeometry) {
+  const NloptSolver solver;
+  const Structure scene = testing::perturbed(testing::prism(4), 0.05, 31u);
+  const SolveResult reference = solve_scene(solver, scene, options_with());
+  expect_verified_equilibrium(scene, reference);
+  for (const char* algorithm : {"penalty-lbfgs", "auglag-eq-lbfgs", "al-tnewton"}) {
+    const SolveResult r = solve_scene(solver, scene, options_with({{"algorithm", algorithm}}));
+    expect_verified_equilibrium(scene, r);
+    EXPECT_NEAR(r.stats.geometry_change, reference.stats.geometry_change,
+                1e-4 * reference.stats.geometry_change)
+        << algorithm;
+  }
+}
+
+TEST(NloptSolver, SlsqpConvergesWhenFixedNodesRemoveTheRigidModes) {
+  const NloptSolver solver;
+  const Structure scene = testing::perturbed(testing::prism(6, 0.0, true), 0.05, 6u);
+  const SolveResult lbfgs = solve_scene(solver, scene, options_with());
+  const SolveResult slsqp = solve_scene(solver, scene, options_with({{"algorithm", "slsqp"}}));
+  expect_verified_equilibrium(scene, slsqp);
+  EXPECT_NEAR(slsqp.stats.geometry_change, lbfgs.stats.geometry_change,
+              1e-4 * lbfgs.stats.geometry_change);
+}
+
+TEST(NloptSolver, MatchesIpoptGeometryChangeWhenAvailable) {
+  const auto names = solver_names();
+  if (std::find(names.begin(), names.end(), "ipopt") == names.end())
+    GTEST_SKIP() << "ipopt backend not registered";
+  const auto ipopt = make_solver("ipopt");
+  const NloptSolver nlopt;
+  for (const Structure& scene : testing::backend_suite_scenes()) {
+    const SolveResult a = solve_scene(nlopt, scene, options_with());
+    const SolveResult b = solve_scene(*ipopt, scene, options_with());
+    if (b.status != Status::Converged) continue;
+    ASSERT_EQ(a.status, Status::Converged) << scene.name;
+    // Both solve Eq. 5 from the same start; a different local optimum would
+    // show as a clearly different geometry change.
+    EXPECT_NEAR(a.stats.geometry_change / b.stats.geometry_change, 1.0, 1e-3) << scene.name;
+  }
+}
+
+TEST(NloptSolver, GravityWithoutFixedNodesIsInfeasibleAtOnce) {
+  PrismParameters p;
+  p.gravity = true;
+  p.strut_mass = 0.1;
+  const Structure scene = make_regular_prism(p);
+  const SolveResult r = NloptSolver().solve_part(scene, options_with());
+  EXPECT_EQ(r.status, Status::Infeasible) << r.message;
+  EXPECT_TRUE(r.trace.empty());
+  EXPECT_EQ(r.stats.geometry_change, 0.0);
+}
+
+TEST(NloptSolver, BudgetsBecomeStatusesNotConvergence) {
+  const NloptSolver solver;
+  const Structure scene = testing::perturbed(testing::octahedron(), 0.05, 3u);
+  const SolveResult few = solver.solve_part(scene, options_with({{"maxeval", "5"}}));
+  EXPECT_EQ(few.status, Status::MaxIterations) << few.message;
+  EXPECT_FALSE(verify(scene, few.positions, few.forces, 1e-8).ok);
+
+  SolveOptions one_outer = options_with();
+  one_outer.max_iterations = 1;
+  const SolveResult short_run = solver.solve_part(scene, one_outer);
+  EXPECT_EQ(short_run.status, Status::MaxIterations) << short_run.message;
+  EXPECT_EQ(short_run.stats.iterations, 1);
+
+  SolveOptions instant = options_with();
+  instant.time_limit_s = 1e-9;
+  const SolveResult late = solver.solve_part(scene, instant);
+  EXPECT_EQ(late.status, Status::TimeLimit) << late.message;
+  EXPECT_TRUE(late.positions.allFinite());
+  EXPECT_TRUE(late.forces.allFinite());
+}
+
+TEST(NloptSolver, TraceIsMonotoneInTimeAndEvaluationsAndEndsAtTheResult) {
+  const NloptSolver solver;
+  const Structure scene = testing::perturbed(testing::prism(6), 0.05, 17u);
+  for (const char* algorithm : {"al-lbfgs", "auglag-eq-lbfgs"}) {
+    const SolveResult r = solver.solve_part(scene, options_with({{"algorithm", algorithm}}));
+    ASSERT_EQ(r.status, Status::Converged) << r.message;
+    ASSERT_FALSE(r.trace.empty());
+    for (std::size_t k = 1; k < r.trace.size(); ++k) {
+      EXPECT_GE(r.trace[k].seconds, r.trace[k - 1].seconds);
+      EXPECT_GE(r.trace[k].evaluations, r.trace[k - 1].evaluations);
+    }
+    EXPECT_GT(r.trace.back().evaluations, 0);
+    if (std::string(algorithm) == "al-lbfgs") {
+      // One point per outer iteration, the last one at the returned solution.
+      EXPECT_EQ(static_cast<int>(r.trace.size()), r.stats.iterations);
+      EXPECT_NEAR(r.trace.back().geometry_change, r.stats.geometry_change, 1e-12);
+      EXPECT_NEAR(r.trace.back().relative_residual, r.stats.relative_residual, 1e-12);
+    }
+  }
+}
+
+TEST(NloptSolver, RejectsUnknownAndMalformedOptions) {
+  const NloptSolver solver;
+  EXPECT_THROW(solver.check_options(options_with({{"algorithm", "newton"}})), InputError);
+  EXPECT_THROW(solver.check_options(options_with({{"colour", "red"}})), InputError);
+  EXPECT_THROW(solver.check_options(options_with({{"ftol_rel", "-1"}})), InputError);
+  EXPECT_THROW(solver.check_options(options_with({{"maxeval", "many"}})), InputError);
+  EXPECT_THROW(solver.check_options(options_with({{"init", "zero"}})), InputError);
+  EXPECT_THROW(solver.check_options(options_with({{"penalty_growth", "1"}})), InputError);
+  for (const auto& name : NloptSolver::algorithm_names())
+    EXPECT_NO_THROW(solver.check_options(options_with({{"algorithm", name}}))) << name;
+  EXPECT_NO_THROW(solver.check_options(options_with(
+      {{"xtol_rel", "1e-10"}, {"maxeval", "1000"}, {"penalty_initial", "1"}, {"init", "reference"}})));
+}
+
+}  // namespace
+}  // namespace tensegrity

@@ -1,0 +1,364 @@
+// The stress QP (Eq. 4): analytic tensegrities, infeasible geometry, KKT
+// conditions against dense algebra, warm starts, and a brute-force
+// cross-check of the bound-constrained least-squares kernel.
+#include "formulations/stress_qp.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "formulations/equilibrium.hpp"
+#include "formulations/force_scale.hpp"
+#include "model/reference_scenes.hpp"
+#include "model/verify.hpp"
+
+namespace tensegrity {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Max over free nodes of the net force (independent formula of model/verify),
+// divided by max |sigma|.
+double relative_residual(const Structure& s, const Eigen::Matrix3Xd& x, const Eigen::VectorXd& sigma) {
+  const Eigen::Matrix3Xd f = net_forces(s, x, sigma);
+  double worst = 0.0;
+  for (int i = 0; i < s.num_nodes(); ++i)
+    if (!s.fixed[i]) worst = std::max(worst, f.col(i).norm());
+  return worst / sigma.lpNorm<Eigen::Infinity>();
+}
+
+double length(const Structure& s, int e) {
+  return (s.positions.col(s.elements[e].b) - s.positions.col(s.elements[e].a)).norm();
+}
+
+TEST(StressQp, RegularPrismsReachEquilibriumWithClosedFormForceDensities) {
+  for (int n = 3; n <= 12; ++n) {
+    SCOPED_TRACE("n = " + std::to_string(n));
+    PrismParameters p;
+    p.n = n;
+    const Structure s = make_regular_prism(p);
+    Equilibrium eq(s);
+    const ForceScale scale = make_force_scale(s);
+    StressQp qp(eq, scale);
+    const StressQpResult r = qp.solve();
+    EXPECT_TRUE(r.optimal);
+    EXPECT_EQ(r.active_bounds, 0);
+    EXPECT_LE(relative_residual(s, s.positions, r.sigma), 1e-12);
+    EXPECT_LE(r.max_node_residual, 1e-12 * r.sigma.lpNorm<Eigen::Infinity>());
+
+    // Force densities relative to the vertical cables' (elements n..2n-1).
+    const double vertical = r.sigma[n] / length(s, n);
+    const double ring = 1.0 / (2.0 * std::sin(M_PI / n));
+    for (int e = 0; e < 4 * n; ++e) {
+      const double expected = e < n ? -1.0 : (e < 2 * n ? 1.0 : ring);
+      EXPECT_NEAR(r.sigma[e] / length(s, e) / vertical, expected, 1e-9) << "element " << e;
+    }
+    // Normalisation: mean cable force = F0 = 1 N.
+    EXPECT_NEAR(r.sigma.tail(3 * n).mean(), 1.0, 1e-12);
+    EXPECT_NEAR(r.normalisation_error, 0.0, 1e-11);
+  }
+}
+
+TEST(StressQp, TwistedPrismIsNotATensegrity) {
+  for (int n : {3, 4, 6, 9}) {
+    SCOPED_TRACE("n = " + std::to_string(n));
+    PrismParameters p;
+    p.n = n;
+    p.twist_offset = 5.0 * M_PI / 180.0;
+    const Structure s = make_regular_prism(p);
+    Equilibrium eq(s);
+    StressQp qp(eq, make_force_scale(s));
+    const StressQpResult r = qp.solve();
+    EXPECT_TRUE(r.optimal);  // the best forces exist; they just leave a residual
+    EXPECT_GE(relative_residual(s, s.positions, r.sigma), 1e-3);
+    EXPECT_GE(r.max_node_residual, 1e-3 * r.sigma.lpNorm<Eigen::Infinity>());
+  }
+}
+
+TEST(StressQp, ExpandableOctahedron) {
+  const Structure s = make_expandable_octahedron({});
+  ASSERT_EQ(s.num_elements(), 30);
+  const double strut = length(s, 0);
+  for (int e = 0; e < 30; ++e) {
+    if (e < 6) EXPECT_NEAR(length(s, e), strut, 1e-14);
+    else EXPECT_NEAR(strut / length(s, e), std::sqrt(8.0 / 3.0), 1e-12);
+  }
+  Equilibrium eq(s);
+  StressQp qp(eq, make_force_scale(s));
+  const StressQpResult r = qp.solve();
+  EXPECT_TRUE(r.optimal);
+  EXPECT_LE(relative_residual(s, s.positions, r.sigma), 1e-12);
+  for (int e = 6; e < 30; ++e) EXPECT_NEAR(r.sigma[e], 1.0, 1e-9);  // mean cable force F0 = 1 N
+  for (int e = 0; e < 6; ++e) {
+    for (int k = 6; k < 30; ++k)
+      EXPECT_NEAR(-r.sigma[e] / r.sigma[k], std::sqrt(6.0), 1e-9) << e << ", " << k;
+  }
+}
+
+// Dense data of the problem: half objective 1/2 |A s + f|^2 + w^2/2 (c.s - t)^2
+// (+ mu/2 |s|^2), as N s - b.
+struct DenseProblem {
+  Eigen::MatrixXd A;
+  Eigen::VectorXd f, c, lower, upper;
+  double t = 0.0, w2 = 1.0;
+  Eigen::MatrixXd normal(double mu) const {
+    Eigen::MatrixXd N = A.transpose() * A + w2 * c * c.transpose();
+    N.diagonal().array() += mu;
+    return N;
+  }
+  Eigen::VectorXd rhs() const { return -A.transpose() * f + w2 * t * c; }
+  Eigen::VectorXd gradient(const Eigen::VectorXd& s, double mu) const { return normal(mu) * s - rhs(); }
+};
+
+DenseProblem dense_problem(const Equilibrium& eq, const ForceScale& scale, double w) {
+  DenseProblem d;
+  d.A = Eigen::MatrixXd(eq.A());
+  d.f = eq.has_gravity() ? eq.gravity_load() : Eigen::VectorXd::Zero(eq.num_equations());
+  d.c = scale.normalisation_row;
+  d.t = scale.normalisation_target;
+  d.w2 = w * w;
+  d.lower = scale.lower;
+  d.upper = scale.upper;
+  return d;
+}
+
+// The unique minimiser of the strictly convex box QP, by enumerating which
+// bound (none, lower, upper) every variable sits at (m <= ~12).
+Eigen::VectorXd brute_force(const DenseProblem& p, double mu) {
+  const int m = static_cast<int>(p.c.size());
+  const Eigen::MatrixXd N = p.normal(mu);
+  const Eigen::VectorXd b = p.rhs();
+  const double scale = std::max(1.0, b.lpNorm<Eigen::Infinity>());
+  std::vector<int> state(m, 0);  // 0 free, 1 lower, 2 upper
+  Eigen::VectorXd best;
+  int found = 0;
+  while (true) {
+    bool possible = true;
+    for (int i = 0; i < m && possible; ++i)
+      possible = state[i] == 0 || (state[i] == 1 ? std::isfinite(p.lower[i]) : std::isfinite(p.upper[i]));
+    if (possible) {
+      std::vector<int> free;
+      Eigen::VectorXd s = Eigen::VectorXd::Zero(m);
+      for (int i = 0; i < m; ++i) {
+        if (state[i] == 0) free.push_back(i);
+        else s[i] = state[i] == 1 ? p.lower[i] : p.upper[i];
+      }
+      const int k = static_cast<int>(free.size());
+      Eigen::MatrixXd Nff(k, k);
+      Eigen::VectorXd bf(k);
+      for (int a = 0; a < k; ++a) {
+        bf[a] = b[free[a]];
+        for (int j = 0; j < m; ++j)
+          if (state[j] != 0) bf[a] -= N(free[a], j) * s[j];
+        for (int c = 0; c < k; ++c) Nff(a, c) = N(free[a], free[c]);
+      }
+      const Eigen::VectorXd sf = Nff.ldlt().solve(bf);
+      for (int a = 0; a < k; ++a) s[free[a]] = sf[a];
+      const Eigen::VectorXd g = N * s - b;
+      bool kkt = true;
+      for (int i = 0; i < m && kkt; ++i) {
+        if (state[i] == 0) kkt = s[i] >= p.lower[i] - 1e-12 * scale && s[i] <= p.upper[i] + 1e-12 * scale;
+        else if (state[i] == 1) kkt = g[i] >= -1e-12 * scale;
+        else kkt = g[i] <= 1e-12 * scale;
+      }
+      if (kkt) {
+        best = s;
+        ++found;
+      }
+    }
+    int i = 0;
+    while (i < m && state[i] == 2) state[i++] = 0;
+    if (i == m) break;
+    ++state[i];
+  }
+  EXPECT_GE(found, 1);
+  return best;
+}
+
+TEST(StressQp, GravityPrismWithFixedBottomMeetsKktConditions) {
+  for (double offset : {0.0, 0.2}) {
+    SCOPED_TRACE("twist offset " + std::to_string(offset));
+    PrismParameters p;
+    p.n = 3;
+    p.twist_offset = offset;
+    p.gravity = true;
+    p.fix_bottom = true;
+    p.strut_mass = 0.4;
+    p.cable_mass = 0.05;
+    const Structure s = make_regular_prism(p);
+    Equilibrium eq(s);
+    const ForceScale scale = make_force_scale(s);
+    ASSERT_GT(scale.reference_force, 1.0);  // the part's weight
+    const StressQpOptions options;
+    StressQp qp(eq, scale, options);
+    const StressQpResult r = qp.solve();
+    EXPECT_TRUE(r.optimal);
+    const Eigen::VectorXd& sigma = r.sigma;
+    const DenseProblem d = dense_problem(eq, scale, options.normalisation_weight);
+
+    // KKT of the full objective (with the mu term), which the polish may
+    // perturb by mu |sigma| at most.
+    const Eigen::VectorXd g = d.gradient(sigma, options.mu);
+    const double tol = 1e-12 * scale.reference_force + 2.0 * options.mu * sigma.lpNorm<Eigen::Infinity>();
+    int at_bound = 0;
+    for (int e = 0; e < s.num_elements(); ++e) {
+      ASSERT_GE(sigma[e], d.lower[e]);
+      ASSERT_LE(sigma[e], d.upper[e]);
+      if (sigma[e] == d.lower[e]) {
+        ++at_bound;
+        EXPECT_GE(g[e], -tol) << e;  // multiplier of a lower bound: g >= 0
+      } else if (sigma[e] == d.upper[e]) {
+        ++at_bound;
+        EXPECT_LE(g[e], tol) << e;
+      } else {
+        EXPECT_NEAR(g[e], 0.0, tol) << e;
+      }
+    }
+    EXPECT_EQ(at_bound, r.active_bounds);
+    // Objective reported without the mu term.
+    const Eigen::VectorXd res = d.A * sigma + d.f;
+    const double e_norm = d.c.dot(sigma) - d.t;
+    EXPECT_NEAR(r.objective, res.squaredNorm() + d.w2 * e_norm * e_norm, 1e-12 * (1.0 + r.objective));
+
+    // Independent dense solve of the regularised problem (unique minimiser).
+    // [A; w c^T] has a null space here (12 forces, 10 conditions), inside
+    // which only mu chooses: the regularised normal matrix has condition
+    // ~1/mu, so any double-precision solver fixes that choice to about
+    // eps / mu ~ 1e-6 relative, while the equilibrium part M sigma (what the
+    // polish makes exact) agrees to rounding.
+    const Eigen::VectorXd reference = brute_force(d, options.mu);
+    const double size = reference.lpNorm<Eigen::Infinity>();
+    EXPECT_LE((sigma - reference).lpNorm<Eigen::Infinity>(), 1e-5 * size);
+    EXPECT_LE((d.A * (sigma - reference)).lpNorm<Eigen::Infinity>(), 1e-9 * size);
+    EXPECT_NEAR(d.c.dot(sigma - reference), 0.0, 1e-9 * size);
+    EXPECT_LE(r.objective, (d.A * reference + d.f).squaredNorm() +
+                               d.w2 * std::pow(d.c.dot(reference) - d.t, 2) + 1e-12 * size * size);
+  }
+}
+
+TEST(StressQp, WarmStartAfterSmallGeometryChange) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (double offset : {0.0, 5.0 * M_PI / 180.0}) {
+    SCOPED_TRACE("twist offset " + std::to_string(offset));
+    PrismParameters p;
+    p.n = 6;
+    p.twist_offset = offset;
+    const Structure s = make_regular_prism(p);
+    Equilibrium eq(s);
+    const ForceScale scale = make_force_scale(s);
+    StressQp qp(eq, scale);
+    StressQpResult previous = qp.solve();
+    ASSERT_TRUE(previous.optimal);
+    Eigen::Matrix3Xd x = s.positions;
+    for (int step = 0; step < 5; ++step) {
+      for (int i = 0; i < x.size(); ++i) x.data()[i] += 1e-5 * noise(rng);
+      eq.set_positions(x);
+      const StressQpResult warm = qp.solve(previous.sigma);
+      StressQp fresh(eq, scale);
+      const StressQpResult cold = fresh.solve();
+      EXPECT_TRUE(warm.optimal);
+      EXPECT_TRUE(cold.optimal);
+      EXPECT_LE(warm.iterations, 3);
+      EXPECT_LE(warm.factorizations, 3);
+      EXPECT_LE((warm.sigma - cold.sigma).lpNorm<Eigen::Infinity>(),
+                1e-10 * cold.sigma.lpNorm<Eigen::Infinity>());
+      previous = warm;
+    }
+  }
+}
+
+// A random element set on random nodes (some fixed, with gravity) gives a
+// random sparse A with unit columns; random two-sided / one-sided / absent
+// bounds and a random normalisation row make a generic bounded least-squares
+// problem, checked against the enumeration above (mu-free objective, which the
+// polish reaches when [A; w c^T] has full column rank).
+TEST(StressQp, RandomBoundedLeastSquaresMatchesBruteForce) {
+  std::mt19937 rng(2024);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  int with_active_bounds = 0;
+  for (int instance = 0; instance < 12; ++instance) {
+    SCOPED_TRACE("instance " + std::to_string(instance));
+    Structure s;
+    const int nodes = 6;
+    for (int i = 0; i < nodes; ++i)
+      s.add_node({unit(rng), unit(rng), unit(rng)}, i >= 4, 0.5 + 0.5 * unit(rng));
+    s.gravity = Eigen::Vector3d(0.3 * unit(rng), 0.3 * unit(rng), -9.81);
+    std::vector<std::pair<int, int>> pairs;
+    for (int a = 0; a < nodes; ++a)
+      for (int b = a + 1; b < nodes; ++b)
+        if (!(a >= 4 && b >= 4)) pairs.emplace_back(a, b);
+    std::shuffle(pairs.begin(), pairs.end(), rng);
+    const int m = 10;
+    for (int e = 0; e < m; ++e)
+      s.add_element(pairs[e].first, pairs[e].second, e % 3 == 0 ? ElementKind::Strut : ElementKind::Cable);
+    Equilibrium eq(s);
+
+    ForceScale scale = make_force_scale(s);
+    for (int e = 0; e < m; ++e) {
+      const double a = 3.0 * unit(rng), b = 3.0 * unit(rng);
+      switch (e % 4) {
+        case 0: scale.lower[e] = std::min(a, b); scale.upper[e] = std::max(a, b); break;
+        case 1: scale.lower[e] = a; scale.upper[e] = kInf; break;
+        case 2: scale.lower[e] = -kInf; scale.upper[e] = a; break;
+        default: scale.lower[e] = -kInf; scale.upper[e] = kInf; break;
+      }
+    }
+    StressQpOptions options;
+    options.normalisation_weight = 0.7;
+    StressQp qp(eq, scale, options);
+    const StressQpResult r = qp.solve();
+    EXPECT_TRUE(r.optimal);
+    const DenseProblem d = dense_problem(eq, scale, options.normalisation_weight);
+    const Eigen::VectorXd reference = brute_force(d, 0.0);
+    const double size = std::max(1.0, reference.lpNorm<Eigen::Infinity>());
+    EXPECT_LE((r.sigma - reference).lpNorm<Eigen::Infinity>(), 1e-9 * size);
+    const Eigen::VectorXd res = d.A * reference + d.f;
+    const double e_ref = d.c.dot(reference) - d.t;
+    EXPECT_NEAR(r.objective, res.squaredNorm() + d.w2 * e_ref * e_ref, 1e-10 * (1.0 + r.objective));
+    if (r.active_bounds > 0) ++with_active_bounds;
+
+    // A warm start from a poor point finds the same minimiser.
+    Eigen::VectorXd poor(m);
+    for (int e = 0; e < m; ++e) poor[e] = 5.0 * unit(rng);
+    const StressQpResult again = qp.solve(poor);
+    EXPECT_TRUE(again.optimal);
+    EXPECT_LE((again.sigma - reference).lpNorm<Eigen::Infinity>(), 1e-9 * size);
+  }
+  EXPECT_GE(with_active_bounds, 6);  // the instances do exercise the bounds
+}
+
+TEST(StressQp, FailuresAreReportedNotThrown) {
+  const Structure s = make_regular_prism({});
+  Equilibrium eq(s);
+  const ForceScale scale = make_force_scale(s);
+  StressQpOptions bad;
+  bad.mu = 0.0;
+  EXPECT_FALSE(bad.IsValid());
+  StressQp invalid(eq, scale, bad);
+  const StressQpResult r1 = invalid.solve();
+  EXPECT_FALSE(r1.optimal);
+  EXPECT_TRUE(r1.sigma.allFinite());
+
+  StressQp qp(eq, scale);
+  Eigen::VectorXd start = Eigen::VectorXd::Constant(s.num_elements(), std::nan(""));
+  const StressQpResult r2 = qp.solve(start);  // unusable start: cold start instead
+  EXPECT_TRUE(r2.optimal);
+  EXPECT_TRUE(r2.sigma.allFinite());
+
+  Eigen::Matrix3Xd x = s.positions;
+  x(0, 1) = std::nan("");  // Equilibrium flags the element as degenerate
+  eq.set_positions(x);
+  ASSERT_TRUE(eq.degenerate());
+  const StressQpResult r3 = qp.solve(r2.sigma);
+  EXPECT_FALSE(r3.optimal);
+  EXPECT_TRUE(r3.sigma.allFinite());
+  EXPECT_FALSE(std::isnan(r3.kkt_error));
+  EXPECT_FALSE(std::isnan(r3.max_node_residual));
+}
+
+}  // namespace
+}  // namespace tensegrity
