@@ -175,7 +175,12 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
           std::string name;
           if (js.contains("face")) {
             name = json_string(js["face"], source, it + ".face");
-            inst.block->face(name, source + ": " + it);
+            if (!inst.block->faces.count(name)) {
+              std::string known;
+              for (const auto& [n, f] : inst.block->faces) known += (known.empty() ? "" : ", ") + n;
+              throw InputError(source, it + ".face", "block '" + inst.id + "' (" + inst.block->name +
+                                                         ") has no face '" + name + "' (faces: " + known + ")");
+            }
           } else if (js.contains("facing")) {
             name = face_facing(s, inst, json_vector3(js["facing"], source, it + ".facing"), source, it);
           } else {
@@ -200,7 +205,11 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
       } else if (type == "edge") {
         auto pick_cable = [&](Instance& inst, const nlohmann::json& js, const std::string& it) {
           if (!js.contains("cable")) throw InputError(source, it + ".cable", "missing");
-          const int e = inst.block->cable(json_string(js["cable"], source, it + ".cable"), source + ": " + it);
+          const std::string cable = json_string(js["cable"], source, it + ".cable");
+          if (!inst.block->cables.count(cable))
+            throw InputError(source, it + ".cable", "block '" + inst.id + "' (" + inst.block->name +
+                                                        ") has no cable named '" + cable + "'");
+          const int e = inst.block->cables.at(cable);
           if (inst.element_ids[e] < 0)
             throw InputError(source, it + ".cable", "cable already removed by another edge link");
           return e;

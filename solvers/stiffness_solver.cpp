@@ -4,6 +4,8 @@
 #include <coin/IpSolveStatistics.hpp>
 #include <coin/IpTNLP.hpp>
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,23 +27,18 @@ constexpr double kIpoptInfinity = 1e19;  // Ipopt's default nlp_{lower,upper}_bo
 // The QP in forces scaled by S: y = sigma / S, objective / S^2.
 class StiffnessTnlp : public Ipopt::TNLP {
  public:
-  StiffnessTnlp(const Equilibrium& eq, const StiffnessProblem& p, double scale, const Eigen::VectorXd& y0)
-      : p_(p), scale_(scale), y0_(y0) {
+  // `rows`: a maximal independent set of equilibrium rows (Ipopt needs a
+  // full-rank constraint Jacobian and no more equalities than unknowns).
+  StiffnessTnlp(const Equilibrium& eq, const StiffnessProblem& p, double scale, const Eigen::VectorXd& y0,
+                std::vector<int> rows)
+      : p_(p), scale_(scale), y0_(y0), rows_(std::move(rows)) {
     const Eigen::SparseMatrix<double>& A = eq.A();
     m_ = static_cast<int>(A.cols());
-    std::vector<int> row_used(A.rows(), 0);
-    for (int c = 0; c < A.outerSize(); ++c)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(A, c); it; ++it)
-        if (it.value() != 0.0) row_used[it.row()] = 1;
     std::vector<int> kept(A.rows(), -1);
-    for (int r = 0; r < A.rows(); ++r)
-      if (row_used[r]) {
-        kept[r] = static_cast<int>(rows_.size());
-        rows_.push_back(r);
-      }
+    for (std::size_t i = 0; i < rows_.size(); ++i) kept[rows_[i]] = static_cast<int>(i);
     for (int c = 0; c < A.outerSize(); ++c)
       for (Eigen::SparseMatrix<double>::InnerIterator it(A, c); it; ++it)
-        if (it.value() != 0.0) {
+        if (it.value() != 0.0 && kept[it.row()] >= 0) {
           jac_row_.push_back(kept[it.row()]);
           jac_col_.push_back(c);
           jac_val_.push_back(it.value());
@@ -174,19 +171,32 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
     if (!std::isfinite(y0[e])) y0[e] = 0.0;
   }
 
-  Ipopt::SmartPtr<StiffnessTnlp> nlp = new StiffnessTnlp(eq, problem, scale, y0);
-  // A weighted free node without any element: no force can hold it.
-  if (eq.has_gravity()) {
-    std::vector<int> used(eq.num_equations(), 0);
-    for (int row : nlp->rows()) used[row] = 1;
-    for (int i = 0; i < eq.num_equations(); ++i)
-      if (!used[i] && eq.gravity_load()[i] != 0.0) {
+  // Rows of A that are combinations of others (rigid-body modes without fixed
+  // nodes, rows of isolated nodes) are implied when the load is consistent
+  // with them, and prove infeasibility when it is not.
+  std::vector<int> rows;
+  {
+    const Eigen::MatrixXd Ad = Eigen::MatrixXd(eq.A());
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Ad.cols(), Ad.rows());
+    qr.setThreshold(1e-10);
+    if (Ad.size() > 0) qr.compute(Ad.transpose());
+    const int rank = Ad.size() > 0 ? static_cast<int>(qr.rank()) : 0;
+    for (int i = 0; i < rank; ++i) rows.push_back(qr.colsPermutation().indices()[i]);
+    std::sort(rows.begin(), rows.end());
+    if (eq.has_gravity()) {
+      const Eigen::VectorXd fg = eq.gravity_load();
+      const Eigen::VectorXd x = Ad.completeOrthogonalDecomposition().solve(Eigen::VectorXd(-fg));
+      const double gap = (Ad * x + fg).norm();
+      if (!(gap <= 1e-9 * fg.norm())) {
         r.status = Status::Infeasible;
-        r.message = "a loaded free node has no element in the direction of its load";
+        r.message = "the loads are not in the range of A(x): no forces balance them at this geometry "
+                    "(least-squares gap " + std::to_string(gap) + " N)";
         r.sigma = y0 * scale;
         return r;
       }
+    }
   }
+  Ipopt::SmartPtr<StiffnessTnlp> nlp = new StiffnessTnlp(eq, problem, scale, y0, rows);
 
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
   app->Options()->SetStringValue("sb", "yes");
@@ -194,6 +204,12 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
   app->Options()->SetNumericValue("tol", 1e-12);
   app->Options()->SetNumericValue("constr_viol_tol", 1e-12);
   app->Options()->SetIntegerValue("max_iter", options.max_iterations);
+  // Degenerate problems (many ties at a bound) may end "acceptable": keep
+  // that level strict on equilibrium.
+  app->Options()->SetNumericValue("acceptable_tol", 1e-9);
+  // Relaxed bounds would be projected back at the end, breaking equilibrium.
+  app->Options()->SetNumericValue("bound_relax_factor", 0.0);
+  app->Options()->SetNumericValue("acceptable_constr_viol_tol", 1e-11);
   app->Options()->SetStringValue("hessian_constant", "yes");
   app->Options()->SetStringValue("jac_c_constant", "yes");
   app->Options()->SetStringValue("jac_d_constant", "yes");
@@ -237,10 +253,22 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
     }
     const double objective_ipopt = stiffness_objective(problem, r.sigma);
     const double sign_tolerance = 1e-9 * scale;
-    for (int round = 0; round < 20; ++round) {
+    const double load_norm = eq.has_gravity() ? eq.gravity_load().norm() : 0.0;
+    for (int round = 0; round < 50; ++round) {
       const ActiveSetSolution a = solve_on_active_set(eq, problem, active);
       if (!a.ok) break;
       bool changed = false;
+      if (a.equilibrium_norm > 1e-11 * (scale + load_norm)) {
+        // Too many bounds held fixed for equilibrium: release the one Ipopt
+        // was least sure about (smallest multiplier).
+        int weakest = -1;
+        for (int e = 0; e < m; ++e)
+          if (active[e] != 0 && (weakest < 0 || nlp->zl[e] + nlp->zu[e] < nlp->zl[weakest] + nlp->zu[weakest]))
+            weakest = e;
+        if (weakest < 0) break;
+        active[weakest] = 0;
+        continue;
+      }
       for (int e = 0; e < m; ++e) {
         if (active[e] < 0 && a.z[e] < -sign_tolerance) active[e] = 0, changed = true;
         else if (active[e] > 0 && a.z[e] > sign_tolerance) active[e] = 0, changed = true;
@@ -249,7 +277,9 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
       }
       if (changed) continue;
       const double objective = stiffness_objective(problem, a.sigma);
-      if (objective <= objective_ipopt * (1.0 + 1e-8) + 1e-12 * scale * scale) {
+      // Ipopt's point is only feasible to its tolerance, so it may sit a hair
+      // below the true optimum; the polished one is exact.
+      if (objective <= objective_ipopt * (1.0 + 1e-6) + 1e-10 * scale * scale) {
         r.sigma = a.sigma.cwiseMax(problem.lower).cwiseMin(problem.upper);
         r.lambda = a.lambda;
         r.bound_multipliers = a.z;

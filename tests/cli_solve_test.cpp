@@ -17,13 +17,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Run {
+struct ProcessResult {
   int status;
   std::string out;
 };
 
 // Runs the program with a shell command line; returns exit status and stdout.
-Run run(const std::string& args) {
+ProcessResult run_cli(const std::string& args) {
   const std::string cmd = std::string(TENSEGRITY_BINARY) + " " + args + " 2>/dev/null";
   FILE* p = popen(cmd.c_str(), "r");
   std::string out;
@@ -50,7 +50,7 @@ class CliSolve : public ::testing::Test {
 };
 
 TEST_F(CliSolve, SolversListsEveryRegisteredBackend) {
-  const Run r = run("solvers");
+  const ProcessResult r = run_cli("solvers");
   EXPECT_EQ(r.status, 0);
   std::string expected;
   for (const auto& n : solver_names()) expected += n + "\n";
@@ -60,8 +60,8 @@ TEST_F(CliSolve, SolversListsEveryRegisteredBackend) {
 TEST_F(CliSolve, ForcesConvergedOnAPrismInfeasibleWhenTwisted) {
   const std::string good = write_scene(testing::prism(5));
   const std::string sol = (dir / "good.json").string();
-  EXPECT_EQ(run("forces " + good + " --out " + sol).status, 0);
-  EXPECT_EQ(run("check " + good + " " + sol).status, 0);
+  EXPECT_EQ(run_cli("forces " + good + " --out " + sol).status, 0);
+  EXPECT_EQ(run_cli("check " + good + " " + sol).status, 0);
   const auto j = nlohmann::json::parse(std::ifstream(sol));
   EXPECT_EQ(j["status"], "converged");
   EXPECT_LE(j["stats"]["relative_residual"].get<double>(), 1e-12);
@@ -69,11 +69,11 @@ TEST_F(CliSolve, ForcesConvergedOnAPrismInfeasibleWhenTwisted) {
 
   const std::string bad = write_scene(testing::prism(5, 5.0));
   const std::string sol2 = (dir / "bad.json").string();
-  EXPECT_EQ(run("forces " + bad + " --out " + sol2).status, 1);
+  EXPECT_EQ(run_cli("forces " + bad + " --out " + sol2).status, 1);
   const auto j2 = nlohmann::json::parse(std::ifstream(sol2));
   EXPECT_EQ(j2["status"], "infeasible");
   EXPECT_GE(j2["stats"]["relative_residual"].get<double>(), 1e-3);
-  EXPECT_EQ(run("check " + bad + " " + sol2).status, 1);
+  EXPECT_EQ(run_cli("check " + bad + " " + sol2).status, 1);
 }
 
 TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
@@ -81,9 +81,9 @@ TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
   for (const auto& name : solver_names()) {
     const std::string sol = (dir / (name + ".json")).string();
     const std::string trace = (dir / (name + ".csv")).string();
-    EXPECT_EQ(run("solve " + scene + " --solver " + name + " --out " + sol + " --trace " + trace).status, 0)
+    EXPECT_EQ(run_cli("solve " + scene + " --solver " + name + " --out " + sol + " --trace " + trace).status, 0)
         << name;
-    EXPECT_EQ(run("check " + scene + " " + sol).status, 0) << name;
+    EXPECT_EQ(run_cli("check " + scene + " " + sol).status, 0) << name;
     const auto j = nlohmann::json::parse(std::ifstream(sol));
     for (const char* key : {"format", "version", "status", "positions", "forces", "stats"})
       EXPECT_TRUE(j.contains(key)) << name << " " << key;
@@ -99,13 +99,13 @@ TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
 
 TEST_F(CliSolve, SolveToStandardOutputAndTamperedSolutionFailsTheCheck) {
   const std::string scene = write_scene(testing::prism(4, 10.0));
-  const Run r = run("solve " + scene);
+  const ProcessResult r = run_cli("solve " + scene);
   ASSERT_EQ(r.status, 0);
   auto j = nlohmann::json::parse(r.out);
   j["forces"][0] = -j["forces"][0].get<double>();  // a strut now pulls
   const std::string sol = (dir / "tampered.json").string();
   std::ofstream(sol) << j.dump();
-  EXPECT_EQ(run("check " + scene + " " + sol).status, 1);
+  EXPECT_EQ(run_cli("check " + scene + " " + sol).status, 1);
 }
 
 TEST_F(CliSolve, BadToleranceAndUnknownSolverAreUsageErrors) {
@@ -113,7 +113,7 @@ TEST_F(CliSolve, BadToleranceAndUnknownSolverAreUsageErrors) {
   const std::string out = (dir / "never.json").string();
   for (const char* args : {" --tol 0", " --tol -1", " --tol nan", " --tol inf", " --solver nosuch",
                            " --option nosuchkey=1"}) {
-    EXPECT_EQ(run("solve " + scene + " --out " + out + args).status, 2) << args;
+    EXPECT_EQ(run_cli("solve " + scene + " --out " + out + args).status, 2) << args;
     EXPECT_FALSE(fs::exists(out)) << args;
   }
 }

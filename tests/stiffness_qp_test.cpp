@@ -163,23 +163,25 @@ TEST(StiffnessQp, GravityAndFixedBottomNodesSatisfyKkt) {
 }
 
 TEST(StiffnessQp, UpperBoundsOfTheMaterialRangeBecomeActive) {
+  // Every cable wants 10 N but may carry at most 2 N: the cable that the
+  // structure loads most sits on its upper bound with a negative multiplier.
   const Structure s = octahedron_under_gravity();
   const int m = s.num_elements();
   Eigen::VectorXd t = Eigen::VectorXd::Zero(m);
-  int first_cable = -1;
   for (int e = 0; e < m; ++e)
-    if (s.elements[e].kind == ElementKind::Cable) {
-      t[e] = 1.0;
-      if (first_cable < 0) first_cable = e;
-    }
-  t[first_cable] = 10.0;  // wants far more than the cable may carry
+    if (s.elements[e].kind == ElementKind::Cable) t[e] = 10.0;
   StiffnessProblem p = make_stiffness_problem(s, t, make_force_scale(s).margin);
   for (int e = 0; e < m; ++e)
     if (s.elements[e].kind == ElementKind::Cable) p.upper[e] = 2.0;
   const StiffnessResult r = solve_stiffness_qp(s, s.positions, p);
   ASSERT_EQ(r.status, Status::Converged) << r.message;
-  EXPECT_DOUBLE_EQ(r.sigma[first_cable], 2.0);
-  EXPECT_LT(r.bound_multipliers[first_cable], 0.0);  // z = -z_upper
+  int at_upper = 0;
+  for (int e = 0; e < m; ++e)
+    if (s.elements[e].kind == ElementKind::Cable && r.sigma[e] == 2.0) {
+      ++at_upper;
+      EXPECT_LT(r.bound_multipliers[e], 0.0) << e;  // z = -z_upper
+    }
+  EXPECT_GE(at_upper, 1);
   EXPECT_LE(r.relative_residual, 1e-10);
   expect_kkt(s, p, r, 10.0);
 }
