@@ -76,6 +76,17 @@ SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, 
     total.forces[e] = scene.elements[e].kind == ElementKind::Cable ? f0 : -f0;
 
   std::string messages;
+  // A free node that no element touches can only balance a zero load.
+  if (scene.has_gravity()) {
+    const Eigen::VectorXd mass = scene.lumped_mass();
+    for (int i : partition.isolated_nodes) {
+      if (mass[i] > 0.0) {
+        total.status = Status::Infeasible;
+        messages = "node " + std::to_string(i) + " carries weight but no element touches it";
+        break;
+      }
+    }
+  }
   for (std::size_t k = 0; k < partition.parts.size(); ++k) {
     const Part& part = partition.parts[k];
     SolveOptions part_options = options;
