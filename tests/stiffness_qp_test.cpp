@@ -111,7 +111,11 @@ TEST(StiffnessQp, SignMarginBecomesActiveWithZeroTargets) {
 
 // Checks w (sigma - t) + A^T lambda - z = 0 with the solver's own multipliers,
 // the multiplier signs and complementarity.
-void expect_kkt(const Structure& s, const StiffnessProblem& p, const StiffnessResult& r, double scale) {
+// `degenerate`: bounds reached with zero multiplier (ties); the independent
+// check's least-squares multipliers are then not unique, so only the solver's
+// certificate is checked for signs.
+void expect_kkt(const Structure& s, const StiffnessProblem& p, const StiffnessResult& r, double scale,
+                bool degenerate = false) {
   Equilibrium eq(s);
   const Eigen::VectorXd stationarity =
       p.weight.cwiseProduct(r.sigma - p.target) + eq.A().transpose() * r.lambda - r.bound_multipliers;
@@ -128,7 +132,7 @@ void expect_kkt(const Structure& s, const StiffnessProblem& p, const StiffnessRe
   }
   const StiffnessKkt kkt = stiffness_kkt(eq, p, r.sigma, 1e-12 * scale);
   EXPECT_LE(kkt.stationarity, 1e-10 * scale);
-  EXPECT_LE(kkt.wrong_sign, 1e-10 * scale);
+  if (!degenerate) EXPECT_LE(kkt.wrong_sign, 1e-10 * scale);
   EXPECT_LE(kkt.equilibrium_norm, 1e-10 * scale);
 }
 
@@ -175,15 +179,17 @@ TEST(StiffnessQp, UpperBoundsOfTheMaterialRangeBecomeActive) {
     if (s.elements[e].kind == ElementKind::Cable) p.upper[e] = 2.0;
   const StiffnessResult r = solve_stiffness_qp(s, s.positions, p);
   ASSERT_EQ(r.status, Status::Converged) << r.message;
-  int at_upper = 0;
+  int at_upper = 0, pushing = 0;
   for (int e = 0; e < m; ++e)
     if (s.elements[e].kind == ElementKind::Cable && r.sigma[e] == 2.0) {
       ++at_upper;
-      EXPECT_LT(r.bound_multipliers[e], 0.0) << e;  // z = -z_upper
+      EXPECT_LE(r.bound_multipliers[e], 0.0) << e;  // z = -z_upper
+      if (r.bound_multipliers[e] < 0.0) ++pushing;
     }
   EXPECT_GE(at_upper, 1);
+  EXPECT_GE(pushing, 1);
   EXPECT_LE(r.relative_residual, 1e-10);
-  expect_kkt(s, p, r, 10.0);
+  expect_kkt(s, p, r, 10.0, /*degenerate=*/true);
 }
 
 TEST(StiffnessQp, GravityWithoutSupportIsNotConverged) {
