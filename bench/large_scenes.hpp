@@ -7,12 +7,14 @@
 // the 80-strut / 500-cable scene (10 layers of 8-strut prisms).
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "model/links.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/structure.hpp"
 
@@ -82,6 +84,42 @@ inline Structure make_prism_tower(const LargeSceneParameters& p) {
   }
   s.name = "tower-" + std::to_string(p.layers * n) + "s-" + std::to_string(cables) + "c" +
            (p.gravity ? "-gravity" : "");
+  return s;
+}
+
+}  // namespace tensegrity::bench
+
+namespace tensegrity::bench {
+
+// octahedron_chain(k): k expandable octahedra ("icosahedra") along the (1,1,1)
+// diagonal, neighbours joined by a face link between the (+,+,+) face of one
+// and the (-,-,-) face of the next. 15 blocks give 104 struts and 528 cables,
+// the paper's Scorpion size (83 / 523). Not in equilibrium as built.
+inline Structure octahedron_chain(int blocks) {
+  Structure s;
+  s.name = "octahedron-chain-" + std::to_string(blocks);
+  const Structure block = make_expandable_octahedron(OctahedronParameters{});
+  const double a = 1.0;
+  const Eigen::Vector3d step = Eigen::Vector3d::Ones().normalized() * (std::sqrt(3.0) * a + 0.8 * a);
+  // One node of each strut pair: the corner of the face towards +-(1,1,1).
+  auto face = [&](int offset, double sign) {
+    std::array<int, 3> f{};
+    for (int pair = 0; pair < 3; ++pair) {
+      double best = -1e300;
+      for (int k = 0; k < 4; ++k) {
+        const int i = 4 * pair + k;
+        const double score = sign * block.positions.col(i).sum();
+        if (score > best) best = score, f[pair] = offset + i;
+      }
+    }
+    return f;
+  };
+  for (int b = 0; b < blocks; ++b) {
+    const int offset = s.num_nodes();
+    for (int i = 0; i < block.num_nodes(); ++i) s.add_node(block.positions.col(i) + b * step);
+    for (const auto& e : block.elements) s.add_element(e.a + offset, e.b + offset, e.kind);
+    if (b > 0) add_face_link(s, face(offset - block.num_nodes(), +1.0), face(offset, -1.0));
+  }
   return s;
 }
 
