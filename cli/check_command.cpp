@@ -9,6 +9,8 @@
 #include "model/scene_io.hpp"
 #include "model/solution.hpp"
 #include "model/verify.hpp"
+#include "model/design.hpp"
+#include "solvers/stability.hpp"
 
 namespace tensegrity::cli {
 
@@ -16,12 +18,20 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
   struct Args {
     std::string scene, solution;
     double tol = 1e-8;
+    bool stability = false;     // --stability: tangent-stiffness test (solvers/stability.hpp)
+    std::string design;         // material model for it; else linear cords
+    double cable_strain = 0.1;  // strain of those linear cords under their force
   };
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("check", "Re-verify a solution against its scene (exit 0 only if it verifies)");
   cmd->add_option("scene", args->scene, "Scene file")->required();
   cmd->add_option("solution", args->solution, "Solution file")->required();
   cmd->add_option("--tol", args->tol, "Relative residual tolerance (finite, > 0)");
+  cmd->add_flag("--stability", args->stability,
+                "Also test stability: smallest tangent-stiffness eigenvalues, prestress stability (exit 0 only if stable)");
+  cmd->add_option("--design", args->design, "With --stability: take cable materials and rest lengths from this design");
+  cmd->add_option("--cable-strain", args->cable_strain,
+                  "With --stability and no --design: cables as linear cords at this strain (default 0.1)");
   cmd->callback([args, &run] {
     run = [args] {
       if (!(std::isfinite(args->tol) && args->tol > 0))
@@ -39,7 +49,24 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
       std::printf("status_claimed    %s\n", std::string(to_string(sol.status)).c_str());
       for (const auto& p : v.problems) std::printf("problem: %s\n", p.c_str());
       std::printf("%s\n", v.ok ? "verified" : "NOT verified");
-      return v.ok ? 0 : 1;
+      if (!args->stability) return v.ok ? 0 : 1;
+      if (!(std::isfinite(args->cable_strain) && args->cable_strain > 0))
+        throw InputError("command line", "--cable-strain", "must be a finite number > 0");
+      const ElasticModel model = args->design.empty()
+                                     ? make_linear_elastic_model(scene, sol.positions, sol.forces, args->cable_strain)
+                                     : make_elastic_model(read_design_file(args->design));
+      if (model.structure.num_nodes() != scene.num_nodes() || model.structure.num_elements() != scene.num_elements())
+        throw InputError(args->design, "", "the design does not match the scene's nodes and elements");
+      const StabilityReport st = analyze_stability(ElasticEnergy(model, scene.gravity), sol.positions);
+      std::printf("stability         %s (%s; %s, %d coordinates, %d rigid modes removed)\n", to_string(st.verdict),
+                  st.message.c_str(), st.method.c_str(), st.dofs, st.rigid_modes_removed);
+      std::printf("eigenvalues       ");
+      for (double l : st.eigenvalues) std::printf(" %.6g", l);
+      std::printf(" N/m\n");
+      const PrestressReport ps = prestress_stability(scene, sol.positions, sol.forces);
+      std::printf("prestress         %s, %s (%s)\n", ps.prestress_stable ? "prestress stable" : "not prestress stable",
+                  ps.super_stable ? "super stable" : "not super stable", ps.message.c_str());
+      return v.ok && st.verdict == Stability::Stable ? 0 : 1;
     };
   });
 }

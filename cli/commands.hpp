@@ -21,5 +21,9 @@ void register_export_command(CLI::App& app, CommandRunner& run);
 void register_render_command(CLI::App& app, CommandRunner& run);
 void register_design_command(CLI::App& app, CommandRunner& run);
 void register_fit_material_command(CLI::App& app, CommandRunner& run);
+void register_simulate_command(CLI::App& app, CommandRunner& run);
+void register_relax_command(CLI::App& app, CommandRunner& run);
+void register_batch_command(CLI::App& app, CommandRunner& run);
+void register_stress_test_command(CLI::App& app, CommandRunner& run);
 
 }  // namespace tensegrity::cli

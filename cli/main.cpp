@@ -19,6 +19,10 @@ int main(int argc, char** argv) {
   cli::register_render_command(app, run);
   cli::register_design_command(app, run);
   cli::register_fit_material_command(app, run);
+  cli::register_simulate_command(app, run);
+  cli::register_relax_command(app, run);
+  cli::register_batch_command(app, run);
+  cli::register_stress_test_command(app, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -329,6 +329,27 @@ void ElasticEnergy::hessian(const Eigen::Matrix3Xd& x, HessianMode mode, Eigen::
   for (const DragSpring& dr : drags) add(node_blocks_[dr.node], dr.stiffness * Eigen::Matrix3d::Identity(), 1.0);
 }
 
+void ElasticEnergy::restore_strut_lengths(const Eigen::Matrix3Xd& before, Eigen::Matrix3Xd& x) const {
+  const Structure& s = model_.structure;
+  for (int e = 0; e < s.num_elements(); ++e) {
+    if (model_.curve_of[e] >= 0) continue;
+    const Element& el = s.elements[e];
+    const bool free_a = map_.slot(el.a) >= 0, free_b = map_.slot(el.b) >= 0;
+    if (!free_a && !free_b) continue;
+    const Eigen::Vector3d d = x.col(el.b) - x.col(el.a);
+    const Eigen::Vector3d d0 = before.col(el.b) - before.col(el.a);
+    const double l = d.norm(), l0 = d0.norm();
+    if (!(l > 0.0) || !(l0 > 0.0)) continue;
+    // Keep the step's first-order (axial) length change, drop the second-order stretch of a rotation.
+    const double target = l0 + d0.dot(d - d0) / l0;
+    if (!(target > 0.0)) continue;
+    const Eigen::Vector3d change = (target - l) / l * d;  // added to b - a
+    const double share_b = free_a && free_b ? 0.5 : (free_b ? 1.0 : 0.0);
+    x.col(el.b) += share_b * change;
+    x.col(el.a) -= (1.0 - share_b) * change;
+  }
+}
+
 Eigen::VectorXd ElasticEnergy::element_forces(const Eigen::Matrix3Xd& x) const {
   const Structure& s = model_.structure;
   Eigen::VectorXd f(s.num_elements());

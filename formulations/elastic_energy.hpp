@@ -133,6 +133,14 @@ class ElasticEnergy {
   // Index into H.valuePtr() of the diagonal entry of free coordinate k.
   int diagonal_slot(int k) const { return diagonal_slot_[k]; }
 
+  // Curved line-search path for stiff struts: moves the ends of every strut of
+  // `x` along its axis so that its length equals its length in `before` plus
+  // the first-order change of the step x - before (fixed ends stay). A Newton step that rotates a strut lengthens it at
+  // second order, which the 1e6-times stiffer strut energy punishes so hard
+  // that a straight line search would crawl; restoring the lengths first lets
+  // large rotations through.
+  void restore_strut_lengths(const Eigen::Matrix3Xd& before, Eigen::Matrix3Xd& x) const;
+
   // Axial forces sigma_e (N, tension > 0) at x.
   Eigen::VectorXd element_forces(const Eigen::Matrix3Xd& x) const;
   // Cables whose strain at x lies outside their measured range (not slack).

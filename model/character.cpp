@@ -287,6 +287,9 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
 
 BuiltCharacter build_character_file(const std::string& path, const std::string& library_override) {
   const nlohmann::json j = read_json_file(path);
+  // The file's own header first: a file that is no character must be named
+  // as the problem, not the block library it would have needed.
+  json_expect_header(j, "tensegrity-character", path);
   namespace fs = std::filesystem;
   std::string dir = library_override;
   if (dir.empty()) {

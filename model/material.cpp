@@ -206,8 +206,9 @@ double parse_number(const std::string& text, const std::string& path, const std:
 }  // namespace
 
 MeasuredPoints read_points_csv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, "", "cannot open file");
+  // Read whole through the shared reader: it refuses directories, endless
+  // devices and huge files, and does not hang on a FIFO.
+  std::istringstream in(read_text_file(path));
   MeasuredPoints out;
   std::string line;
   int line_number = 0;

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -99,6 +100,13 @@ struct DuplicateKey {
   std::string item;
 };
 
+// No file of this program nests more than a few levels.
+constexpr std::size_t kMaxJsonDepth = 128;
+
+struct TooDeep {
+  std::string item;
+};
+
 std::string path_of(const std::vector<PathFrame>& frames, std::size_t depth) {
   std::string path;
   for (std::size_t d = 0; d < depth; ++d) {
@@ -115,20 +123,44 @@ void child_done(std::vector<PathFrame>& frames) {
   if (!frames.empty() && !frames.back().is_object) ++frames.back().index;
 }
 
+// Files larger than this are refused rather than read into memory whole.
+constexpr std::size_t kMaxFileBytes = std::size_t{256} << 20;
+
 std::string read_whole_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw InputError(path, "", "cannot read file: it is a directory");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    const int error = errno;
-    throw InputError(path, "", std::string("cannot open file: ") +
-                                   (error != 0 ? std::strerror(error) : "unknown error"));
+  auto fail = [&path](const std::string& what, int error) {
+    return InputError(path, "", what + (error != 0 ? std::string(": ") + std::strerror(error) : std::string()));
+  };
+  // O_NONBLOCK: opening a FIFO without a writer must not wait forever (it then
+  // reads as empty); it is cleared at once so that reading a pipe still works.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) throw fail("cannot open file", errno);
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat info {};
+  if (::fstat(fd, &info) != 0) throw fail("cannot read file", errno);
+  if (S_ISDIR(info.st_mode)) throw InputError(path, "", "cannot read file: it is a directory");
+  if (S_ISREG(info.st_mode) && static_cast<std::uintmax_t>(info.st_size) > kMaxFileBytes)
+    throw InputError(path, "", "file too large (" + std::to_string(info.st_size) + " bytes; the limit is " +
+                                   std::to_string(kMaxFileBytes) + ")");
+  const int flags = ::fcntl(fd, F_GETFL);
+  if (flags < 0 || ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0) throw fail("cannot read file", errno);
+  std::string text;
+  char chunk[1 << 16];
+  for (;;) {
+    const ssize_t got = ::read(fd, chunk, sizeof chunk);
+    if (got < 0) {
+      if (errno == EINTR) continue;
+      throw fail("cannot read file", errno);
+    }
+    if (got == 0) break;
+    // Devices and pipes have no size: an endless one (/dev/zero) stops here.
+    if (text.size() + static_cast<std::size_t>(got) > kMaxFileBytes)
+      throw InputError(path, "", "file too large (more than " + std::to_string(kMaxFileBytes) + " bytes)");
+    text.append(chunk, static_cast<std::size_t>(got));
   }
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) throw InputError(path, "", "cannot read file");
-  return buffer.str();
+  return text;
 }
 
 std::string describe(const json& v) {
@@ -181,8 +213,13 @@ json parse_json_text(const std::string& text, const std::string& source) {
   // Duplicate keys are ambiguous (which value wins?), so they are input errors.
   auto track = [&frames](int, json::parse_event_t event, json& parsed) {
     switch (event) {
-      case json::parse_event_t::object_start: frames.push_back(PathFrame{true, 0, {}, {}}); break;
-      case json::parse_event_t::array_start: frames.push_back(PathFrame{false, 0, {}, {}}); break;
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        // Copying, printing and destroying a JSON value recurse once per
+        // level: deeper input would overflow the stack.
+        if (frames.size() >= kMaxJsonDepth) throw TooDeep{path_of(frames, 4) + "..."};
+        frames.push_back(PathFrame{event == json::parse_event_t::object_start, 0, {}, {}});
+        break;
       case json::parse_event_t::key: {
         PathFrame& top = frames.back();
         top.key = parsed.get<std::string>();
@@ -203,6 +240,9 @@ json parse_json_text(const std::string& text, const std::string& source) {
     return json::parse(text, track);
   } catch (const DuplicateKey& d) {
     throw InputError(source, d.item, "duplicate key in a JSON object");
+  } catch (const TooDeep& d) {
+    throw InputError(source, d.item.empty() ? std::string("top level") : d.item,
+                     "JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
   } catch (const json::exception&) {
     ErrorLocator locator;
     json::sax_parse(text, &locator);
@@ -211,6 +251,8 @@ json parse_json_text(const std::string& text, const std::string& source) {
                      "malformed JSON: " + printable(strip_nlohmann_prefix(locator.reason)));
   }
 }
+
+std::string read_text_file(const std::string& path) { return read_whole_file(path); }
 
 json read_json_file(const std::string& path) { return parse_json_text(read_whole_file(path), path); }
 

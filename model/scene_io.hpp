@@ -8,6 +8,11 @@
 
 namespace tensegrity {
 
+// The whole content of a file, for every reader of the model: InputError when it
+// cannot be opened, is a directory, or holds more than 256 MiB (an endless
+// device stops there); a FIFO without a writer reads as empty instead of hanging.
+std::string read_text_file(const std::string& path);
+
 // Parses a JSON file; malformed JSON becomes InputError with line and column.
 nlohmann::json read_json_file(const std::string& path);
 

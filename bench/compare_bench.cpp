@@ -1,0 +1,359 @@
+// Every registered backend on every benchmark scene, through the same driver
+// as `tensegrity solve` (solve_scene, skip_if_in_equilibrium off).
+//
+//   build/bench/compare_bench --benchmark_out=compare.json --benchmark_out_format=json
+//       --benchmark_repetitions=3 --trace_dir=traces      (one command line)
+//
+// Benchmarks are named compare/<scene>/<backend> (reference, perturbed,
+// towers, characters) and scaling/<scene>/<backend> for two parametric
+// families: chain-<N> (N face-linked expandable octahedra under gravity,
+// model/character.hpp, nodes moved by seeded noise of 2 % of the strut length)
+// and tower-layers-<L> (see scaling_tower).
+// Scenes are built once, before any timing; success is checked after the
+// timing loop by the independent model/verify at --success_tol.
+//
+// Own flags (taken out of argv before Google Benchmark sees it):
+//   --trace_dir=DIR        write DIR/<scene>__<backend>.csv, the last run's trace
+//   --time_limit=S         wall-clock budget per solve (default 60)
+//   --tolerance=T          the backends' target relative residual (default 1e-10,
+//                          so that the times to 1e-4 ... 1e-10 all exist when reachable)
+//   --success_tol=T        relative residual that counts as success (default 1e-8)
+//   --chain_sizes=2,4,...  sizes of the chain family (default 2,4,8,16,32,64,128; empty: none)
+//   --tower_layers=2,4,... layers of the tower family (default 2,4,8,16,32; empty: none)
+//
+// Counters (per benchmark, from the last timed run unless said otherwise):
+//   t_1e-4 ... t_1e-10   seconds until the trace first reaches that relative
+//                        residual; -1 when never reached
+//   iterations, relative_residual (final, verified), geometry_change (m),
+//   geometry_change_L (in units of the scene's mean element length),
+//   success (1/0), elements, nodes,
+//   peak_heap_MB         most heap bytes live at once during a solve beyond
+//                        those live before it (every malloc of the process,
+//                        C++, C and Fortran alike; max over the timed runs),
+//   max_rss_MB           the process's resident high-water mark so far (getrusage).
+// The geometry change relative to the best successful backend per scene is
+// computed by bench/scripts/report.py from the JSON (it needs all backends).
+#include <benchmark/benchmark.h>
+#include <dlfcn.h>
+#include <malloc.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bench/large_scenes.hpp"
+#include "model/character.hpp"
+#include "model/verify.hpp"
+#include "solvers/solver.hpp"
+#include "tests/scene_fixtures.hpp"
+
+// ---------------------------------------------------------------------------
+// Heap meter: malloc and friends are interposed for the whole process (shared
+// libraries included, so Ipopt's MUMPS and NLopt count too) and forwarded to
+// glibc; live bytes are counted by malloc_usable_size. Relaxed atomics: the
+// solves are single-threaded, and a peak off by one allocation is fine.
+extern "C" {
+void* __libc_malloc(size_t);
+void __libc_free(void*);
+void* __libc_calloc(size_t, size_t);
+void* __libc_realloc(void*, size_t);
+void* __libc_memalign(size_t, size_t);
+}
+
+namespace {
+std::atomic<long long> g_live_bytes{0};
+std::atomic<long long> g_peak_bytes{0};
+
+inline void count_alloc(void* p) {
+  if (!p) return;
+  const long long now = g_live_bytes.fetch_add(static_cast<long long>(malloc_usable_size(p)),
+                                               std::memory_order_relaxed) +
+                        static_cast<long long>(malloc_usable_size(p));
+  long long peak = g_peak_bytes.load(std::memory_order_relaxed);
+  while (now > peak && !g_peak_bytes.compare_exchange_weak(peak, now, std::memory_order_relaxed)) {
+  }
+}
+inline void count_free(void* p) {
+  if (p) g_live_bytes.fetch_sub(static_cast<long long>(malloc_usable_size(p)), std::memory_order_relaxed);
+}
+}  // namespace
+
+extern "C" {
+void* malloc(size_t n) {
+  void* p = __libc_malloc(n);
+  count_alloc(p);
+  return p;
+}
+void free(void* p) {
+  count_free(p);
+  __libc_free(p);
+}
+void* calloc(size_t n, size_t size) {
+  void* p = __libc_calloc(n, size);
+  count_alloc(p);
+  return p;
+}
+void* realloc(void* old, size_t n) {
+  const long long before = old ? static_cast<long long>(malloc_usable_size(old)) : 0;
+  void* p = __libc_realloc(old, n);
+  if (p || n == 0) g_live_bytes.fetch_sub(before, std::memory_order_relaxed);
+  count_alloc(p);
+  return p;
+}
+void* memalign(size_t alignment, size_t n) {
+  void* p = __libc_memalign(alignment, n);
+  count_alloc(p);
+  return p;
+}
+void* aligned_alloc(size_t alignment, size_t n) { return memalign(alignment, n); }
+int posix_memalign(void** out, size_t alignment, size_t n) {
+  void* p = memalign(alignment, n);
+  if (!p) return ENOMEM;
+  *out = p;
+  return 0;
+}
+void* valloc(size_t n) { return memalign(static_cast<size_t>(sysconf(_SC_PAGESIZE)), n); }
+void* pvalloc(size_t n) {
+  const size_t page = static_cast<size_t>(sysconf(_SC_PAGESIZE));
+  return memalign(page, (n + page - 1) / page * page);
+}
+}
+
+namespace tensegrity {
+namespace {
+
+struct Config {
+  std::string trace_dir;
+  double time_limit_s = 60.0;
+  double tolerance = 1e-10;
+  double success_tol = 1e-8;
+  std::vector<int> chain_sizes{2, 4, 8, 16, 32, 64, 128};
+  std::vector<int> tower_layers{2, 4, 8, 16, 32};
+};
+Config& config() {
+  static Config c;
+  return c;
+}
+
+struct BenchScene {
+  std::string family;  // "compare" or "scaling"
+  Structure structure;
+};
+
+Structure character(const std::string& name) {
+  Structure s = build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/" + name +
+                                     ".character.json")
+                    .structure;
+  s.name = name;
+  return s;
+}
+
+// The chain as built is already in equilibrium (every block is); nodes moved
+// by up to 2 % of the longest strut make it a form-finding problem.
+Structure chain(int n) {
+  Structure s =
+      build_character(make_chain_character(n), "chain-" + std::to_string(n), BlockLibrary::standard()).structure;
+  s = testing::perturbed(s, 0.02, 1000u + static_cast<unsigned>(n));
+  s.name = "chain-" + std::to_string(n);
+  return s;
+}
+
+// The second scaling family, a real form-finding problem at every size (the
+// chain's blocks each stand on three fixed nodes, so the stress QP alone nearly
+// always solves it): L layers of 6-strut prisms joined by two cables per top
+// node, every node moved by 2 % of the strut length, no gravity.
+Structure scaling_tower(int layers) {
+  bench::LargeSceneParameters p;
+  p.layers = layers;
+  p.struts_per_layer = 6;
+  p.cables = 3 * 6 * layers + 2 * 6 * (layers - 1);
+  p.seed = 100u + static_cast<unsigned>(layers);
+  Structure s = bench::make_prism_tower(p);
+  s.name = "tower-layers-" + std::to_string(layers);
+  return s;
+}
+
+Structure tower(bool gravity) {
+  bench::LargeSceneParameters p;
+  p.gravity = gravity;
+  return bench::make_prism_tower(p);
+}
+
+std::vector<BenchScene> all_scenes() {
+  using namespace tensegrity::testing;
+  std::vector<BenchScene> v;
+  auto add = [&](Structure s) { v.push_back({"compare", std::move(s)}); };
+  // Reference prisms and octahedron, moved off equilibrium (their own
+  // geometry is already a tensegrity and would be nothing to solve).
+  add(prism(3, 10.0));
+  add(prism(6, 10.0));
+  add(prism(12, 10.0));
+  add(perturbed(octahedron(), 0.05, 3u));
+  // Perturbed versions, with and without gravity.
+  add(perturbed(prism(6), 0.05, 17u));
+  add(perturbed(prism(4), 0.15, 7u));
+  add(perturbed(prism(6, 0.0, true), 0.05, 6u));
+  add(perturbed(octahedron(true), 0.05, 8u));
+  // Towers (80 struts / 500 cables) and the characters.
+  add(tower(false));
+  add(tower(true));
+  for (const char* name : {"duck", "scorpion", "puppy"}) add(character(name));
+  for (int n : config().chain_sizes) v.push_back({"scaling", chain(n)});
+  for (int layers : config().tower_layers) v.push_back({"scaling", scaling_tower(layers)});
+  return v;
+}
+
+double first_time_below(const std::vector<TracePoint>& trace, double threshold, const SolveResult& r) {
+  for (const TracePoint& p : trace)
+    if (std::isfinite(p.relative_residual) && p.relative_residual <= threshold) return p.seconds;
+  // A trace without the final point (or a shortcut) still counts the end.
+  if (r.stats.relative_residual <= threshold) return r.stats.seconds;
+  return -1.0;
+}
+
+void write_trace(const std::string& path, const std::vector<TracePoint>& trace) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "seconds,iteration,evaluations,residual,relative_residual,geometry_change,objective\n";
+  for (const auto& p : trace)
+    out << p.seconds << ',' << p.iteration << ',' << p.evaluations << ',' << p.residual << ','
+        << p.relative_residual << ',' << p.geometry_change << ',' << p.objective << '\n';
+  std::ofstream(path) << out.str();
+}
+
+double max_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_maxrss) / 1024.0;
+}
+
+void run(benchmark::State& state, const std::string& backend, const Structure& scene) {
+  const auto solver = make_solver(backend);
+  SolveOptions options;
+  options.tolerance = config().tolerance;
+  options.time_limit_s = config().time_limit_s;
+  options.skip_if_in_equilibrium = false;
+  SolveResult r;
+  long long peak_heap = 0;
+  for (auto _ : state) {
+    const long long base = g_live_bytes.load(std::memory_order_relaxed);
+    g_peak_bytes.store(base, std::memory_order_relaxed);
+    r = solve_scene(*solver, scene, options);
+    benchmark::DoNotOptimize(r.forces.data());
+    peak_heap = std::max(peak_heap, g_peak_bytes.load(std::memory_order_relaxed) - base);
+  }
+  const Verification v = verify(scene, r.positions, r.forces, config().success_tol);
+  const bool success = v.ok;
+  state.counters["success"] = success ? 1.0 : 0.0;
+  state.counters["iterations"] = r.stats.iterations;
+  state.counters["relative_residual"] = v.relative_residual;
+  state.counters["geometry_change"] = v.geometry_change;
+  state.counters["geometry_change_L"] = v.geometry_change / scene.mean_element_length();
+  state.counters["solve_seconds"] = r.stats.seconds;
+  state.counters["elements"] = scene.num_elements();
+  state.counters["nodes"] = scene.num_nodes();
+  for (int k : {4, 6, 8, 10}) {
+    const double t = first_time_below(r.trace, std::pow(10.0, -k), r);
+    state.counters["t_1e-" + std::to_string(k)] = t;
+  }
+  state.counters["peak_heap_MB"] = static_cast<double>(peak_heap) / (1024.0 * 1024.0);
+  state.counters["max_rss_MB"] = max_rss_mb();
+  state.SetLabel(std::string(to_string(r.status)) + (success ? "" : " (not verified)"));
+  if (!config().trace_dir.empty())
+    write_trace(config().trace_dir + "/" + scene.name + "__" + backend + ".csv", r.trace);
+  // One progress line per benchmark (Google Benchmark calls this function
+  // again for each trial iteration count and repetition).
+  static std::set<std::string> reported;
+  if (!reported.insert(scene.name + "/" + backend).second) return;
+  std::fprintf(stderr, "run  %-28s %-15s %-15s %8.3f s  %5d it  rr %.1e  change %.4g m  heap %.1f MB\n",
+               scene.name.c_str(), backend.c_str(), std::string(to_string(r.status)).c_str(),
+               r.stats.seconds, r.stats.iterations, v.relative_residual, v.geometry_change,
+               static_cast<double>(peak_heap) / (1024.0 * 1024.0));
+}
+
+void register_all() {
+  static const std::vector<BenchScene> scenes = all_scenes();
+  for (const BenchScene& s : scenes)
+    for (const std::string& backend : solver_names()) {
+      const std::string name = s.family + "/" + s.structure.name + "/" + backend;
+      benchmark::RegisterBenchmark(name.c_str(), [backend, &s](benchmark::State& st) { run(st, backend, s.structure); })
+          ->Unit(benchmark::kMillisecond)
+          ->MeasureProcessCPUTime()
+          ->UseRealTime();
+    }
+}
+
+std::vector<int> parse_int_list(const std::string& text) {
+  std::vector<int> v;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) v.push_back(std::stoi(item));
+  return v;
+}
+
+bool take_flag(const char* arg, const char* prefix, std::string* value) {
+  const size_t n = std::strlen(prefix);
+  if (std::strncmp(arg, prefix, n) != 0) return false;
+  *value = arg + n;
+  return true;
+}
+
+// Removes our own flags from argv; exits with status 2 on a malformed value.
+void parse_own_flags(int* argc, char** argv) {
+  int out = 1;
+  for (int i = 1; i < *argc; ++i) {
+    std::string value;
+    try {
+      if (take_flag(argv[i], "--trace_dir=", &value)) {
+        config().trace_dir = value;
+        std::filesystem::create_directories(value);
+      } else if (take_flag(argv[i], "--time_limit=", &value)) {
+        config().time_limit_s = std::stod(value);
+      } else if (take_flag(argv[i], "--tolerance=", &value)) {
+        config().tolerance = std::stod(value);
+      } else if (take_flag(argv[i], "--success_tol=", &value)) {
+        config().success_tol = std::stod(value);
+      } else if (take_flag(argv[i], "--chain_sizes=", &value)) {
+        config().chain_sizes = parse_int_list(value);
+      } else if (take_flag(argv[i], "--tower_layers=", &value)) {
+        config().tower_layers = parse_int_list(value);
+      } else {
+        argv[out++] = argv[i];
+      }
+    } catch (const std::exception&) {
+      std::fprintf(stderr, "compare_bench: bad value in %s\n", argv[i]);
+      std::exit(2);
+    }
+  }
+  *argc = out;
+}
+
+}  // namespace
+}  // namespace tensegrity
+
+int main(int argc, char** argv) {
+  // One solve, one core: OpenBLAS (under MUMPS) read its environment when it
+  // was loaded, so tell it at run time as well (when it is the BLAS in use).
+  setenv("OPENBLAS_NUM_THREADS", "1", 0);
+  setenv("OMP_NUM_THREADS", "1", 0);
+  for (const char* symbol : {"openblas_set_num_threads", "omp_set_num_threads"})
+    if (auto* set = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, symbol))) set(1);
+  tensegrity::parse_own_flags(&argc, argv);
+  tensegrity::register_all();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

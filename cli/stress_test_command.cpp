@@ -1,0 +1,134 @@
+// tensegrity stress-test [--scenes ...] [--solvers ...] [--families ...] [--trials N] [--seed S]
+//                        [--jobs J] [--time-limit S] [--tol T] [--data DIR] [--scene FILE]...
+//                        [--no-times] --out REPORT.json
+// Seeded families of perturbed benchmark scenes and characters, every chosen
+// backend on each, results re-verified and summarised (cli/stress_test.hpp).
+#include <dlfcn.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "cli/commands.hpp"
+#include "cli/stress_test.hpp"
+#include "model/errors.hpp"
+#include "model/json_text.hpp"
+#include "model/scene_io.hpp"
+
+namespace tensegrity::cli {
+
+namespace {
+
+struct StressArgs {
+  std::vector<std::string> scenes, solvers, families, scene_files;
+  int trials = 2;
+  std::uint64_t seed = 1;
+  int jobs = 2;
+  double time_limit = 20.0;
+  double tol = 1e-8;
+  std::string data;
+  std::string out;
+  bool no_times = false;
+  bool quiet = false;
+};
+
+// One BLAS thread per solve: the parallelism is across trials. The variables
+// are read when OpenBLAS and OpenMP start (before main), so the libraries are
+// also told directly when they are loaded.
+void use_one_blas_thread() {
+  ::setenv("OPENBLAS_NUM_THREADS", "1", 1);
+  ::setenv("OMP_NUM_THREADS", "1", 1);
+  if (auto* f = reinterpret_cast<void (*)(int)>(::dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(1);
+  if (auto* f = reinterpret_cast<void (*)(int)>(::dlsym(RTLD_DEFAULT, "omp_set_num_threads"))) f(1);
+}
+
+// The data folder: --data, else ./data, else data beside the program's folder.
+std::string find_data_dir(const std::string& given) {
+  namespace fs = std::filesystem;
+  if (!given.empty()) {
+    std::error_code ec;
+    if (!fs::is_directory(given, ec)) throw InputError(given, "--data", "not a directory");
+    return given;
+  }
+  std::error_code ec;
+  if (fs::is_directory("data/characters", ec)) return "data";
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    for (const fs::path& candidate : {exe.parent_path() / "data", exe.parent_path().parent_path() / "data"})
+      if (fs::is_directory(candidate / "characters", ec)) return candidate.string();
+  }
+  return "";
+}
+
+void show_progress(int done, int total, int failures, bool tty) {
+  static int last_tenth = -1;
+  if (tty) {
+    std::fprintf(stderr, "\rstress-test: %d/%d solves (%.1f %%), %d not converged or not verified   ", done,
+                 total, total > 0 ? 100.0 * done / total : 100.0, failures);
+    if (done == total) std::fputc('\n', stderr);
+  } else {
+    const int tenth = total > 0 ? 10 * done / total : 10;
+    if (tenth != last_tenth) {
+      std::fprintf(stderr, "stress-test: %d/%d solves, %d not converged or not verified\n", done, total, failures);
+      last_tenth = tenth;
+    }
+  }
+  std::fflush(stderr);
+}
+
+}  // namespace
+
+void register_stress_test_command(CLI::App& app, CommandRunner& run) {
+  auto args = std::make_shared<StressArgs>();
+  auto* cmd = app.add_subcommand("stress-test", "Solve seeded families of perturbed scenes with every backend");
+  cmd->add_option("--scenes", args->scenes,
+                  "Scene names or groups (reference, tower, character), comma-separated; default all");
+  cmd->add_option("--scene", args->scene_files, "Also stress this scene file (repeatable)");
+  cmd->add_option("--solvers", args->solvers, "Backends, comma-separated; default every registered one");
+  cmd->add_option("--families", args->families,
+                  "Perturbation families, comma-separated; default all (noise, twist, scale, length-ratio, "
+                  "near-coincident, near-parallel, mass, gravity-direction)");
+  cmd->add_option("--trials", args->trials, "Trials per scene, family and level")->check(CLI::Range(1, 100000));
+  cmd->add_option("--seed", args->seed, "Seed of every perturbation");
+  cmd->add_option("--jobs", args->jobs, "Threads solving in parallel")->check(CLI::Range(1, 256));
+  cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget per solve (s)");
+  cmd->add_option("--tol", args->tol, "Relative residual for `converged`");
+  cmd->add_option("--data", args->data, "Data folder holding characters/ (default ./data or beside the program)");
+  cmd->add_flag("--no-times", args->no_times, "Leave timings out, so equal options give a bit-identical report");
+  cmd->add_flag("--quiet", args->quiet, "No progress display");
+  cmd->add_option("--out", args->out, "Report file (JSON), - for standard output")->required();
+  cmd->callback([args, &run] {
+    run = [args] {
+      use_one_blas_thread();
+      StressTestOptions o;
+      o.scenes = args->scenes;
+      o.scene_files = args->scene_files;
+      o.solvers = args->solvers;
+      o.families = args->families;
+      o.trials = args->trials;
+      o.seed = args->seed;
+      o.jobs = args->jobs;
+      o.time_limit_s = args->time_limit;
+      o.tolerance = args->tol;
+      o.data_dir = find_data_dir(args->data);
+      o.with_times = !args->no_times;
+      if (!args->quiet) {
+        const bool tty = ::isatty(STDERR_FILENO) != 0;
+        o.progress = [tty](int done, int total, int failures) { show_progress(done, total, failures, tty); };
+      }
+      const StressReport report = run_stress_test(o);
+      write_text_file_atomically(args->out, to_json_text(stress_report_to_json(report)) + "\n");
+      int bad = 0;
+      for (const StressTrial& t : report.trials)
+        if (!t.rejected && (!t.finite || t.overran || (t.status == Status::Converged && !t.verified))) ++bad;
+      std::cerr << "stress-test: " << report.trials.size() << " solves; " << bad
+                << " with a non-finite number, an overrun or a converged result that does not verify\n";
+      return bad == 0 ? 0 : 1;
+    };
+  });
+}
+
+}  // namespace tensegrity::cli

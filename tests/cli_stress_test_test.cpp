@@ -1,0 +1,127 @@
+// `tensegrity stress-test` and determinism: the same options give a
+// bit-identical report run to run and on one or two threads; `solve` gives
+// bit-identical positions and forces run to run with every backend.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+int run(const std::vector<std::string>& args, const fs::path& err) {
+  std::string command = "timeout 300 ";
+  command += TENSEGRITY_BINARY;
+  for (const std::string& a : args) command += " '" + a + "'";
+  command += " >/dev/null 2>'" + err.string() + "'";
+  const int raw = std::system(command.c_str());
+  return WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+}
+
+class StressTestCommand : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("tensegrity-stress-" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  // A small stress run: two scenes, two families, every backend.
+  std::string report(int jobs, const std::string& name) {
+    const fs::path out = dir_ / name;
+    const int status = run({"stress-test", "--scenes", "prism-3,prism-4-gravity", "--families", "noise,gravity-direction",
+                            "--trials", "1", "--seed", "7", "--jobs", std::to_string(jobs), "--no-times", "--quiet",
+                            "--out", out.string()},
+                           dir_ / (name + ".err"));
+    EXPECT_EQ(status, 0) << read_text(dir_ / (name + ".err"));
+    return read_text(out);
+  }
+  fs::path dir_;
+};
+
+TEST_F(StressTestCommand, ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads) {
+  const std::string one = report(1, "one.json");
+  const std::string two = report(2, "two.json");
+  const std::string again = report(2, "again.json");
+  ASSERT_FALSE(one.empty());
+  EXPECT_EQ(one, two) << "one thread and two threads differ";
+  EXPECT_EQ(two, again) << "two runs differ";
+
+  const json j = json::parse(one);
+  EXPECT_EQ(j["format"], "tensegrity-stress-report");
+  // 2 scenes x (6 noise levels + 7 gravity directions) x 1 trial, per backend.
+  ASSERT_TRUE(j["solvers"].contains("alternating-gn"));
+  for (const auto& [solver, s] : j["solvers"].items()) {
+    SCOPED_TRACE(solver);
+    const json& overall = s["overall"];
+    EXPECT_EQ(overall["trials"].get<int>() + overall["rejected_inputs"].get<int>(), 2 * (6 + 7));
+    EXPECT_EQ(overall["non_finite"], 0);
+    EXPECT_EQ(overall["false_converged"], 0);
+    EXPECT_EQ(overall["verified"], overall["converged"]);
+    EXPECT_FALSE(overall.contains("median_seconds")) << "--no-times must leave timings out";
+  }
+  // The small noise levels are easy: the recommended backend solves them all.
+  const json& gn = j["solvers"]["alternating-gn"]["families"]["noise"]["by_level"];
+  for (const char* level : {"0.001", "0.01", "0.1"}) EXPECT_EQ(gn[level]["converged"], 2) << level;
+}
+
+TEST_F(StressTestCommand, SolveIsBitIdenticalRunToRun) {
+  const std::string scene = (fs::path(TENSEGRITY_SOURCE_DIR) / "data" / "reference" / "prism-5-gravity.scene.json").string();
+  // Move the scene off equilibrium deterministically: twist the top ring.
+  json j = json::parse(read_text(scene));
+  for (std::size_t i = 5; i < 10; ++i) {
+    auto& x = j["nodes"][i]["x"];
+    const double a = 0.2, c = std::cos(a), s = std::sin(a);
+    const double px = x[0], py = x[1];
+    x[0] = c * px - s * py;
+    x[1] = s * px + c * py;
+  }
+  const fs::path twisted = dir_ / "twisted.scene.json";
+  { std::ofstream(twisted) << j.dump(); }
+  for (const char* solver : {"alternating", "alternating-gn", "ipopt", "nlopt"}) {
+    SCOPED_TRACE(solver);
+    std::vector<json> results;
+    for (int k = 0; k < 2; ++k) {
+      const fs::path out = dir_ / ("out" + std::to_string(k) + ".json");
+      run({"solve", twisted.string(), "--solver", solver, "--out", out.string()}, dir_ / "err");
+      results.push_back(json::parse(read_text(out)));
+    }
+    // Bit-identical: the JSON numbers round-trip, so equal text means equal bits.
+    EXPECT_EQ(results[0]["positions"].dump(), results[1]["positions"].dump());
+    EXPECT_EQ(results[0]["forces"].dump(), results[1]["forces"].dump());
+    EXPECT_EQ(results[0]["status"], results[1]["status"]);
+  }
+}
+
+TEST_F(StressTestCommand, RejectsUnknownNames) {
+  for (const std::vector<std::string>& bad :
+       {std::vector<std::string>{"--scenes", "no-such-scene"}, {"--families", "no-such-family"},
+        {"--solvers", "no-such-solver"}}) {
+    std::vector<std::string> args = {"stress-test", "--quiet", "--out", (dir_ / "r.json").string()};
+    args.insert(args.end(), bad.begin(), bad.end());
+    EXPECT_EQ(run(args, dir_ / "err"), 2) << bad[1];
+    EXPECT_NE(read_text(dir_ / "err").find(bad[1]), std::string::npos) << read_text(dir_ / "err");
+    EXPECT_FALSE(fs::exists(dir_ / "r.json"));
+  }
+}
+
+}  // namespace

@@ -1,0 +1,88 @@
+#pragma once
+// Designs for the simulation and stability tests: the analytic prism made into
+// a design in memory, and designs written by the `tensegrity design` program.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "formulations/rest_lengths.hpp"
+#include "model/design.hpp"
+#include "model/reference_scenes.hpp"
+#include "model/scene_io.hpp"
+
+namespace tensegrity::testing {
+
+inline CableMaterial shipped_material(const std::string& name) {
+  return read_material_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/materials/" + name + ".json");
+}
+
+// Analytic prism forces: force densities struts -1, verticals 1, rings 1 / (2 sin(pi/n)).
+inline Eigen::VectorXd prism_forces(const Structure& s, int n, double mean_cable_force) {
+  const int m = s.num_elements();
+  Eigen::VectorXd sigma(m);
+  double cable_sum = 0.0;
+  for (int e = 0; e < m; ++e) {
+    const double l = (s.positions.col(s.elements[e].b) - s.positions.col(s.elements[e].a)).norm();
+    sigma[e] = (e < n ? -1.0 : e < 2 * n ? 1.0 : 1.0 / (2.0 * std::sin(M_PI / n))) * l;
+    if (e >= n) cable_sum += sigma[e];
+  }
+  return sigma * (mean_cable_force * (m - n) / cable_sum);
+}
+
+// The regular prism (radius 0.1 m, height 0.12 m, masses), no gravity, as a design.
+inline Design prism_design(int n, const std::string& material, double mean_force) {
+  PrismParameters p;
+  p.n = n;
+  p.radius = 0.1;
+  p.height = 0.12;
+  p.strut_mass = 0.01;
+  p.cable_mass = 0.001;
+  Design d;
+  d.structure = make_regular_prism(p);
+  const Structure& s = d.structure;
+  const int m = s.num_elements();
+  const Eigen::VectorXd sigma = prism_forces(s, n, mean_force);
+  d.materials[material] = shipped_material(material);
+  d.cable_material.assign(m, "");
+  for (int e = 0; e < m; ++e)
+    if (s.elements[e].kind == ElementKind::Cable) d.cable_material[e] = material;
+  const RestLengthDesign rest = compute_rest_lengths(s, s.positions, sigma, d.material_pointers());
+  EXPECT_TRUE(rest.ok) << rest.message;
+  d.solution.positions = s.positions;
+  d.solution.forces = sigma;
+  d.solution.rest_lengths = rest.rest_lengths;
+  d.strains = rest.strains;
+  return d;
+}
+
+inline std::string temp_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("tensegrity-" + name + "-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+// Runs `tensegrity design INPUT ARGS --out DIR/OUT`; returns the design path ("" on failure).
+inline std::string run_design(const std::string& input, const std::string& args, const std::string& out) {
+  const std::string cmd = std::string(TENSEGRITY_BINARY) + " design " + input + " " + args + " --out " + out +
+                          " > " + out + ".log 2>&1";
+  return std::system(cmd.c_str()) == 0 ? out : std::string();
+}
+
+// A prism standing on its fixed bottom ring under gravity, written as a scene.
+inline std::string gravity_prism_scene(const std::string& dir, int n = 3) {
+  PrismParameters p;
+  p.n = n;
+  p.radius = 0.1;
+  p.height = 0.15;
+  p.strut_mass = 0.02;
+  p.cable_mass = 0.001;
+  p.gravity = p.fix_bottom = true;
+  const std::string path = dir + "/prism-gravity.scene.json";
+  write_scene_file(make_regular_prism(p), path);
+  return path;
+}
+
+}  // namespace tensegrity::testing

@@ -1,0 +1,205 @@
+// Implicit Euler (Eq. 7) and the static relax: energy bookkeeping, damping,
+// designed shapes that hold under gravity, sag when turned, and sag less with
+// stiffer cords.
+#include "solvers/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <cstdio>
+#include <cstdlib>
+
+#include "simulation_fixtures.hpp"
+
+namespace tensegrity {
+namespace {
+
+using testing::prism_design;
+
+// A free prism (no gravity, nothing fixed), nodes displaced by ~1% of its size.
+Simulator perturbed_free_prism(const SimulationOptions& o, ElasticModel* out_model = nullptr) {
+  const Design d = prism_design(4, "elastic-cord-1mm", 2.0);
+  const ElasticModel model = make_elastic_model(d);
+  if (out_model) *out_model = model;
+  Simulator sim(model, Eigen::Vector3d::Zero(), o);
+  Eigen::Matrix3Xd x = model.reference;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < x.cols(); ++i) x.col(i) += 0.002 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+  sim.set_state(x, Eigen::Matrix3Xd::Zero(3, x.cols()));
+  return sim;
+}
+
+struct EnergyRun {
+  double initial = 0.0, final = 0.0, dissipation = 0.0, worst_balance = 0.0;
+  bool monotone = true, converged = true;
+};
+
+EnergyRun run_energy(double h, double duration, double damping) {
+  SimulationOptions o;
+  o.time_step = h;
+  o.mass_damping = damping;
+  o.tolerance = 1e-9;
+  Simulator sim = perturbed_free_prism(o);
+  EnergyRun r;
+  r.initial = sim.kinetic_energy() + sim.potential_energy();
+  double previous = r.initial;
+  const int steps = static_cast<int>(std::lround(duration / h));
+  for (int k = 0; k < steps; ++k) {
+    const StepReport s = sim.step();
+    r.converged = r.converged && s.converged;
+    const double now = sim.kinetic_energy() + sim.potential_energy();
+    r.dissipation += s.velocity_jump + s.bregman;
+    if (damping == 0.0)
+      r.worst_balance = std::max(r.worst_balance, std::abs(now - previous + s.velocity_jump + s.bregman));
+    r.monotone = r.monotone && now <= previous + 1e-12 * r.initial;
+    previous = now;
+  }
+  r.final = previous;
+  return r;
+}
+
+TEST(Simulator, WithoutDampingEnergyDriftsOnlyByImplicitEulersDissipation) {
+  const EnergyRun r = run_energy(1.0 / 240.0, 0.25, 0.0);
+  ASSERT_TRUE(r.converged);
+  ASSERT_GT(r.initial, 1e-6);
+  // Each step's exact balance H_{n+1} - H_n = -(1/2 |dv|_M^2 + D_E): holds to the Newton tolerance.
+  EXPECT_LT(r.worst_balance, 1e-8 * r.initial);
+  // The drift is a loss, and no larger than the scheme's expected dissipation.
+  EXPECT_LE(r.final, r.initial);
+  EXPECT_LE(r.initial - r.final, r.dissipation * (1.0 + 1e-6) + 1e-12);
+  EXPECT_NEAR(r.initial - r.final, r.dissipation, 1e-6 * r.initial);
+}
+
+TEST(Simulator, ImplicitEulerDissipationShrinksWithTheStep) {
+  const EnergyRun coarse = run_energy(1.0 / 120.0, 0.1, 0.0);
+  const EnergyRun fine = run_energy(1.0 / 480.0, 0.1, 0.0);
+  ASSERT_TRUE(coarse.converged && fine.converged);
+  EXPECT_LT(fine.initial - fine.final, coarse.initial - coarse.final);
+}
+
+TEST(Simulator, WithDampingEnergyDecreasesMonotonically) {
+  const EnergyRun r = run_energy(1.0 / 120.0, 0.5, 5.0);
+  ASSERT_TRUE(r.converged);
+  EXPECT_TRUE(r.monotone);
+  EXPECT_LT(r.final, 0.5 * r.initial);
+}
+
+TEST(Simulator, FreeFallMatchesGravityExactly) {
+  // A structure in self-equilibrium falls as a rigid body: x(t_n) from the
+  // implicit Euler recurrence v_{n+1} = v_n + h g, x_{n+1} = x_n + h v_{n+1}.
+  const Design d = prism_design(3, "elastic-cord-2mm", 1.0);
+  const ElasticModel model = make_elastic_model(d);
+  SimulationOptions o;
+  o.time_step = 0.01;
+  const Eigen::Vector3d g(1.0, 2.0, -9.81);
+  Simulator sim(model, g, o);
+  for (int k = 0; k < 10; ++k) ASSERT_TRUE(sim.step().converged);
+  const double drop_factor = 0.01 * 0.01 * 10 * 11 / 2.0;  // h^2 n (n + 1) / 2
+  for (int i = 0; i < model.reference.cols(); ++i)
+    EXPECT_LT((sim.positions().col(i) - model.reference.col(i) - drop_factor * g).norm(), 1e-9) << i;
+}
+
+TEST(Simulator, DragPullsANodeTowardItsTarget) {
+  const Design d = prism_design(3, "elastic-cord-1mm", 1.0);
+  ElasticModel model = make_elastic_model(d);
+  for (int i = 0; i < 3; ++i) model.structure.fixed[i] = true;
+  SimulationOptions o;
+  o.mass_damping = 10.0;
+  Simulator sim(model, Eigen::Vector3d::Zero(), o);
+  const Eigen::Vector3d target = model.reference.col(4) + Eigen::Vector3d(0.0, 0.0, 0.03);
+  sim.set_drags({{4, target, 200.0}});
+  for (int k = 0; k < 240; ++k) ASSERT_TRUE(sim.step().converged);
+  const double before = (model.reference.col(4) - target).norm();
+  const double after = (sim.positions().col(4) - target).norm();
+  EXPECT_LT(after, 0.8 * before);
+  // At rest, the same equilibrium as the static relax with that drag.
+  const RelaxResult r = relax(sim.energy(), model.reference, sim.drags());
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_LT((r.positions - sim.positions()).cwiseAbs().maxCoeff(), 1e-5 * model.length_scale);
+}
+
+class DesignedPrism : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = testing::temp_dir("simulator");
+    scene_ = testing::gravity_prism_scene(dir_);
+  }
+  static Design design(const std::string& material) {
+    const std::string out = dir_ + "/" + material.substr(material.rfind('/') + 1) + ".design.json";
+    const std::string path = testing::run_design(scene_, "--material " + material + " --strain 0.3", out);
+    EXPECT_FALSE(path.empty()) << "tensegrity design failed, see " << out << ".log";
+    return read_design_file(path);
+  }
+  static double sag(const Design& d, const Eigen::Vector3d& gravity) {
+    const ElasticModel model = make_elastic_model(d);
+    const RelaxResult r = relax(ElasticEnergy(model, gravity), model.reference);
+    EXPECT_EQ(r.status, Status::Converged) << r.message;
+    return r.max_displacement / model.length_scale;
+  }
+  static std::string dir_, scene_;
+};
+std::string DesignedPrism::dir_, DesignedPrism::scene_;
+
+TEST_F(DesignedPrism, StaysPutUnderGravityInSimulationAndRelax) {
+  const Design d = design("elastic-cord-1mm");
+  const ElasticModel model = make_elastic_model(d);
+  const double size = model.length_scale;
+  const RelaxResult r = relax(ElasticEnergy(model), model.reference);
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_LT(r.max_displacement, 1e-6 * size);
+  EXPECT_EQ(r.cables_slack, 0);
+  SimulationOptions o;
+  Simulator sim(model, model.structure.gravity, o);
+  for (int k = 0; k < 120; ++k) ASSERT_TRUE(sim.step().converged) << k;
+  EXPECT_LT((sim.positions() - model.reference).colwise().norm().maxCoeff(), 1e-6 * size);
+}
+
+TEST_F(DesignedPrism, TurnedAgainstGravityItSagsAndStifferCordsSagLess) {
+  const Design soft = design("elastic-cord-1mm");
+  const Design stiff = design("elastic-cord-2mm");
+  const Eigen::Vector3d down = soft.structure.gravity, sideways(9.81, 0.0, 0.0);
+  EXPECT_LT(sag(soft, down), 1e-6);
+  const double sag_soft = sag(soft, sideways), sag_stiff = sag(stiff, sideways);
+  EXPECT_GT(sag_soft, 1e-3);  // visibly: more than 0.1% of its size
+  EXPECT_LT(sag_stiff, sag_soft);
+  // A cord four times stiffer than the 2 mm one (same curve shape): less again.
+  CableMaterial m = testing::shipped_material("elastic-cord-2mm");
+  for (double& c : m.coefficients) c *= 4.0;
+  m.name = "cord-2mm-x4";
+  const std::string path = dir_ + "/cord-2mm-x4.json";
+  write_material_file(m, path);
+  EXPECT_LT(sag(design(path), sideways), sag_stiff);
+}
+
+TEST(Relax, GravityWithoutSupportIsInfeasible) {
+  const Design d = prism_design(3, "elastic-cord-1mm", 1.0);
+  const ElasticModel model = make_elastic_model(d);
+  const RelaxResult r = relax(ElasticEnergy(model, Eigen::Vector3d(0, 0, -9.81)), model.reference);
+  EXPECT_EQ(r.status, Status::Infeasible);
+}
+
+TEST(Relax, FindsTheSelfStressedShapeFromADisplacedStart) {
+  const Design d = prism_design(5, "elastic-cord-1mm", 1.5);
+  const ElasticModel model = make_elastic_model(d);
+  const ElasticEnergy energy(model);
+  Eigen::Matrix3Xd x = model.reference;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < x.cols(); ++i) x.col(i) += 0.01 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+  const RelaxResult r = relax(energy, x);
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  // Same shape up to a rigid motion: every element length as designed.
+  for (int e = 0; e < model.structure.num_elements(); ++e) {
+    const auto& el = model.structure.elements[e];
+    const double l0 = (model.reference.col(el.b) - model.reference.col(el.a)).norm();
+    const double l1 = (r.positions.col(el.b) - r.positions.col(el.a)).norm();
+    EXPECT_NEAR(l1, l0, 1e-7 * l0) << e;
+    EXPECT_NEAR(r.forces[e], d.solution.forces[e], 1e-6 * std::abs(d.solution.forces[e])) << e;
+  }
+}
+
+}  // namespace
+}  // namespace tensegrity
