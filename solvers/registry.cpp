@@ -50,9 +50,11 @@ std::vector<std::string> solver_names() {
 }
 
 std::string default_solver_name() {
-  // The recommended backend (README): fast and close to the input geometry.
+  // The recommended backend (README): Ipopt solves Eq. 5 itself, so it gives
+  // the smallest geometry change, and it converged on every scene we measured;
+  // alternating-gn is faster but moves the geometry more.
   const auto names = solver_names();
-  for (const char* preferred : {"alternating-gn", "ipopt", "alternating"})
+  for (const char* preferred : {"ipopt", "alternating-gn", "alternating"})
     if (std::find(names.begin(), names.end(), preferred) != names.end()) return preferred;
   return names.empty() ? std::string() : names.front();
 }
