@@ -409,7 +409,9 @@ SolveResult IpoptSolver::solve_part(const Structure& part, const SolveOptions& o
   // stay below what the residual test can see.
   o.SetNumericValue("bound_relax_factor", 0.1 * constraint_tolerance);
   o.SetIntegerValue("max_iter", options.max_iterations);
-  o.SetNumericValue("max_cpu_time", options.time_limit_s);
+  // No max_cpu_time: Ipopt 3.11 measures the CPU time of the whole process, so
+  // with solves on other threads it stops early (two busy threads: after half
+  // the budget). The wall-clock limit is the intermediate callback's.
   apply_backend_options(*app, options.backend_options);
 
   const Ipopt::ApplicationReturnStatus code = app->OptimizeTNLP(Ipopt::SmartPtr<Ipopt::TNLP>(GetRawPtr(problem)));
