@@ -59,9 +59,7 @@ Structure octahedron_scene(bool gravity) {
 }
 
 Structure tower_scene(bool gravity) {
-  bench::LargeSceneParameters p;
-  p.gravity = gravity;
-  return bench::make_prism_tower(p);
+  return bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", gravity);
 }
 
 void run(benchmark::State& state, bool gauss_newton, const Structure& scene) {

@@ -185,9 +185,7 @@ Structure scaling_tower(int layers) {
 }
 
 Structure tower(bool gravity) {
-  bench::LargeSceneParameters p;
-  p.gravity = gravity;
-  return bench::make_prism_tower(p);
+  return bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", gravity);
 }
 
 std::vector<BenchScene> all_scenes() {

@@ -26,10 +26,8 @@ std::vector<Structure> bench_scenes() {
   v.push_back(testing::perturbed(testing::octahedron(), 0.05, 3u));
   v.push_back(testing::perturbed(testing::prism(6, 0.0, true), 0.05, 6u));
   v.push_back(testing::perturbed(testing::octahedron(true), 0.05, 8u));
-  v.push_back(bench::make_prism_tower({}));
-  bench::LargeSceneParameters gravity;
-  gravity.gravity = true;
-  v.push_back(bench::make_prism_tower(gravity));
+  v.push_back(bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false));
+  v.push_back(bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true));
   return v;
 }
 

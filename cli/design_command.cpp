@@ -1,11 +1,21 @@
 // tensegrity design SCENE|CHARACTER [--strain S] [--material NAME] [--naive-fraction F]
 //   [--solver NAME] --out DESIGN.json [--sheet FILE.csv]
+//   [--compare-naive] [--naive-fractions FROM:TO:N] [--settle relax|simulate] [--settle-duration S]
 //
 // Runs only the stages the input needs: form finding (skipped when the input
 // geometry already is a tensegrity), stiffness scaling (the QP of
 // formulations/stiffness_qp.hpp), rest lengths (formulations/rest_lengths.hpp).
 // Writes a self-contained design file (model/design.hpp) and, with --sheet, the
-// fabrication sheet as CSV.
+// fabrication sheet as CSV (cli/fabrication_sheet.hpp). With --compare-naive
+// it also settles the design and the paper's constant-fraction baseline under
+// gravity (solvers/naive_sweep.hpp) and records the comparison.
+//
+// Exit status: 0 a design that verifies was written; 2 bad input (nothing
+// computed); 1 the input is valid but no buildable design exists (form finding
+// failed, or no equilibrium at the form-found geometry keeps every cable
+// inside its material's measured force range). A design that cannot be built
+// is never written: on status 1 the last line on standard error names the
+// file, the cable and the reason, and no file is left behind.
 #include <unistd.h>
 
 #include <algorithm>
@@ -20,6 +30,8 @@
 #include <sstream>
 
 #include "cli/commands.hpp"
+#include "cli/fabrication_sheet.hpp"
+#include "cli/naive_comparison_report.hpp"
 #include "cli/output.hpp"
 #include "formulations/force_scale.hpp"
 #include "formulations/rest_lengths.hpp"
@@ -28,6 +40,8 @@
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
+#include "solvers/force_cap.hpp"
+#include "solvers/naive_sweep.hpp"
 #include "solvers/stiffness_solver.hpp"
 
 namespace tensegrity::cli {
@@ -43,6 +57,9 @@ struct DesignArgs {
   double tol = 1e-8;
   double time_limit = 120.0;
   std::vector<std::string> material_dirs;
+  bool compare_naive = false;
+  std::string naive_fractions, settle = "relax";
+  double settle_duration = 5.0;
 };
 
 std::string text(double v) {
@@ -104,86 +121,82 @@ CableMaterial find_material(const std::string& name, const std::vector<std::stri
   throw InputError("command line", item, "material '" + name + "' not found (searched " + searched + ")");
 }
 
-// Block and link groups in assembly order: blocks first, then links, each in
-// the order they first appear; elements without an id last.
-struct Group {
-  std::string kind, id;
-  std::vector<int> elements;
-};
-
-std::string id_text(const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); }
-
-std::vector<Group> assembly_groups(const Structure& s) {
-  std::vector<Group> blocks, links;
-  Group rest{"none", "", {}};
-  auto find_or_add = [](std::vector<Group>& groups, const std::string& kind, const std::string& id) -> Group& {
-    for (auto& g : groups)
-      if (g.id == id) return g;
-    groups.push_back(Group{kind, id, {}});
-    return groups.back();
-  };
-  for (int e = 0; e < s.num_elements(); ++e) {
-    const nlohmann::json extra =
-        e < static_cast<int>(s.element_extra.size()) ? s.element_extra[e] : nlohmann::json::object();
-    if (extra.contains("block")) find_or_add(blocks, "block", id_text(extra.at("block"))).elements.push_back(e);
-    else if (extra.contains("link")) find_or_add(links, "link", id_text(extra.at("link"))).elements.push_back(e);
-    else rest.elements.push_back(e);
-  }
-  std::vector<Group> out = blocks;
-  out.insert(out.end(), links.begin(), links.end());
-  if (!rest.elements.empty()) out.push_back(rest);
-  // Within a group: struts (cut from tube) before cables, each in element order.
-  for (auto& g : out)
-    std::stable_sort(g.elements.begin(), g.elements.end(), [&](int a, int b) {
-      return (s.elements[a].kind == ElementKind::Strut) > (s.elements[b].kind == ElementKind::Strut);
-    });
-  return out;
+// "elements[E] (cable of block B)" for messages.
+std::string element_name(const Structure& s, int e) {
+  std::string name = "elements[" + std::to_string(e) + "] (" +
+                     (s.elements[e].kind == ElementKind::Cable ? "cable" : "strut");
+  const nlohmann::json& extra = s.element_extra[e];
+  for (const char* group : {"block", "link"})
+    if (extra.contains(group))
+      name += std::string(" of ") + group + " " +
+              (extra.at(group).is_string() ? extra.at(group).get<std::string>() : extra.at(group).dump());
+  return name + ")";
 }
 
-std::string csv_field(const std::string& v) {
-  if (v.find_first_of(",\"\n") == std::string::npos) return v;
-  std::string q = "\"";
-  for (char c : v) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
+// The final line of a run that cannot produce a buildable design (exit 1).
+int no_design(const std::string& file, const std::string& item, const std::string& reason) {
+  std::cerr << "tensegrity: " << file << ": " << (item.empty() ? "" : item + ": ") << reason
+            << "; no design written\n";
+  return 1;
 }
 
-std::string number17(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
+std::vector<double> parse_fractions(const std::string& spec) {
+  const std::string item = "--naive-fractions";
+  double from = 0, to = 0;
+  int n = 0;
+  char tail = 0;
+  if (std::sscanf(spec.c_str(), "%lf:%lf:%d%c", &from, &to, &n, &tail) != 3)
+    throw InputError("command line", item, "expected FROM:TO:N (e.g. 0.5:0.95:10), got '" + spec + "'");
+  for (double f : {from, to})
+    if (!std::isfinite(f) || !(f > 0.0) || f > 1.0)
+      throw InputError("command line", item, "fractions must lie in (0, 1], got '" + spec + "'");
+  if (n < 1 || n > 1000) throw InputError("command line", item, "N must be 1..1000, got '" + spec + "'");
+  return fraction_grid(from, to, n);
 }
 
-void write_sheet(const std::string& path, const Design& d, const Eigen::VectorXd& lengths) {
+// An output path whose folder does not exist fails before any work.
+void check_output_path(const std::string& path, const char* item) {
+  if (path.empty() || path == "-") return;
+  const std::filesystem::path p(path);
+  std::error_code ec;
+  if (std::filesystem::is_directory(p, ec)) throw InputError(path, "", "cannot write: it is a directory");
+  const std::filesystem::path dir = p.has_parent_path() ? p.parent_path() : std::filesystem::path(".");
+  if (!std::filesystem::is_directory(dir, ec))
+    throw InputError(path, "", std::string("cannot write ") + item + ": folder " + dir.string() + " does not exist");
+}
+
+// Why the stiffness QP found no forces: measure the smallest achievable
+// overload of the material caps (solvers/force_cap.hpp) and name the cable.
+std::string stiffness_failure_reason(const Design& d, const StiffnessProblem& problem, const StiffnessResult& qr,
+                                     double margin) {
   const Structure& s = d.structure;
-  std::ostringstream out;
-  out << "group_kind,group,element,kind,node_a,node_b,material,length_m,rest_length_m,force_N,strain,count\n";
-  int struts = 0;
-  double strut_length = 0.0;
-  std::map<std::string, std::pair<int, std::pair<double, double>>> per_material;  // count, (l, L)
-  for (const Group& g : assembly_groups(s)) {
-    for (int e : g.elements) {
-      const bool strut = s.elements[e].kind == ElementKind::Strut;
-      const double L = (*d.solution.rest_lengths)[e];
-      out << g.kind << ',' << csv_field(g.id) << ',' << e << ',' << (strut ? "strut" : "cable") << ','
-          << s.elements[e].a << ',' << s.elements[e].b << ',' << csv_field(d.cable_material[e]) << ','
-          << number17(lengths[e]) << ',' << number17(L) << ',' << number17(d.solution.forces[e]) << ','
-          << number17(d.strains[e]) << ",1\n";
-      if (strut) {
-        ++struts;
-        strut_length += lengths[e];
-      } else {
-        auto& t = per_material[d.cable_material[e]];
-        ++t.first;
-        t.second.first += lengths[e];
-        t.second.second += L;
-      }
+  const int m = s.num_elements();
+  const auto materials_of = d.material_pointers();
+  Eigen::VectorXd upper = problem.upper, cap = Eigen::VectorXd::Constant(m, INFINITY);
+  for (int e = 0; e < m; ++e)
+    if (materials_of[e]) {
+      upper[e] = INFINITY;
+      cap[e] = materials_of[e]->force_max();
+    } else {
+      upper[e] = -margin;
     }
+  const ForceCapResult fc = smallest_force_cap(s, s.positions, problem.lower, upper, cap);
+  if (fc.status == Status::Converged && fc.ratio > 1.0 + 1e-6 && !fc.tightest.empty()) {
+    const int e = fc.tightest.front();
+    const CableMaterial& mat = *materials_of[e];
+    std::ostringstream r;
+    r.precision(4);
+    r << element_name(s, e) << ": no equilibrium at the form-found geometry keeps every cable inside its "
+      << "material's measured force range; at best this cable (and " << fc.tightest.size() - 1
+      << " more equally tight) must pull " << fc.ratio * mat.force_max() << " N, " << fc.ratio << " times the "
+      << mat.force_max() << " N that material '" << mat.name << "' reaches at its largest measured strain "
+      << mat.strain_max << " (the target strain does not change this: use a stronger cord for these cables)";
+    return r.str();
   }
-  out << "total,,,strut,,,," << number17(strut_length) << ',' << number17(strut_length) << ",,," << struts << "\n";
-  for (const auto& [name, t] : per_material)
-    out << "total,,,cable,,," << csv_field(name) << ',' << number17(t.second.first) << ','
-        << number17(t.second.second) << ",,," << t.first << "\n";
-  write_text_file_atomically(path, out.str());
+  if (fc.status == Status::Infeasible)
+    return "stiffness QP: " + std::string(to_string(qr.status)) +
+           ": no forces with the right signs balance the loads at the form-found geometry";
+  return "stiffness QP: " + std::string(to_string(qr.status)) + ": " + qr.message;
 }
 
 int run_design(const DesignArgs& a) {
@@ -193,6 +206,23 @@ int run_design(const DesignArgs& a) {
   if (!std::isfinite(a.strain) || !(a.strain > -1.0))
     throw InputError("command line", "--strain", "must be a finite number > -1, got " + text(a.strain));
   if (a.out.empty()) throw InputError("command line", "--out", "missing");
+  if (a.out == "-" && a.sheet == "-")
+    throw InputError("command line", "--sheet", "the design already goes to standard output");
+  check_output_path(a.out, "the design");
+  check_output_path(a.sheet, "the sheet");
+  const bool compare = a.compare_naive || !a.naive_fractions.empty();
+  if (compare && naive)
+    throw InputError("command line", "--compare-naive",
+                     "compares the stiffness design with naive ones; it cannot be combined with --naive-fraction");
+  std::vector<double> fractions;
+  if (!a.naive_fractions.empty()) fractions = parse_fractions(a.naive_fractions);
+  SettleOptions settle_options;
+  if (a.settle == "simulate") settle_options.method = SettleMethod::Simulate;
+  else if (a.settle != "relax")
+    throw InputError("command line", "--settle", "expected relax or simulate, got '" + a.settle + "'");
+  if (!std::isfinite(a.settle_duration) || !(a.settle_duration > 0.0) || a.settle_duration > 1e4)
+    throw InputError("command line", "--settle-duration", "must be a number of seconds in (0, 1e4]");
+  settle_options.duration = a.settle_duration;
   SolveOptions options;
   options.tolerance = a.tol;
   options.time_limit_s = a.time_limit;
@@ -252,6 +282,11 @@ int run_design(const DesignArgs& a) {
                            ", " + text(mat.strain_max) + "] of material '" + mat.name + "'");
     if (!naive) targets[e] = mat.force(target_strain[e]);
   }
+  // The baseline's one strain must be inside every material before any work.
+  if (naive) {
+    const RestLengthDesign check = naive_rest_lengths(scene, scene.positions, a.naive_fraction, materials_of);
+    if (!check.ok) throw InputError("command line", "--naive-fraction", check.message);
+  }
 
   // Stage 1: form finding, only when the input geometry is not a tensegrity.
   SolveResult ff = solve_forces_only(scene, options);
@@ -260,11 +295,8 @@ int run_design(const DesignArgs& a) {
     ff = solve_scene(*solver, scene, options);
     form_solver = solver_name;
     std::cerr << summary_line(scene, solver_name, ff) << "\n";
-    if (ff.status != Status::Converged) {
-      std::cerr << "design: form finding did not converge (" << to_string(ff.status) << "): " << ff.message
-                << "; nothing written\n";
-      return 1;
-    }
+    if (ff.status != Status::Converged)
+      return no_design(a.input, "form finding", std::string(to_string(ff.status)) + ": " + ff.message);
   }
   d.structure = scene;
   d.structure.positions = ff.positions;
@@ -315,14 +347,14 @@ int run_design(const DesignArgs& a) {
     std::cerr << "design: stiffness QP " << to_string(qr.status) << ": " << qr.message << ", relative residual "
               << text(qr.relative_residual) << ", max |sigma - target| " << text(qr.max_target_deviation) << " N, "
               << qr.active_bounds << " bounds active\n";
-    if (qr.status != Status::Converged) {
-      std::cerr << "design: stiffness scaling failed; nothing written\n";
-      return 1;
-    }
+    if (qr.status != Status::Converged)
+      return no_design(a.input, "", stiffness_failure_reason(d, problem, qr, fs.margin));
     forces = qr.sigma;
-    // Stage 3: rest lengths.
+    // Stage 3: rest lengths. The QP's bounds keep every force in range, so a
+    // failure here is a solver defect, reported like one.
     rest = compute_rest_lengths(d.structure, d.structure.positions, forces, materials_of);
-    if (!rest.ok) throw InputError(a.input, "rest lengths", rest.message);
+    if (!rest.ok)
+      return no_design(a.input, element_name(d.structure, rest.out_of_range.front()), "rest length: " + rest.message);
     const Eigen::VectorXd back =
         cable_forces_from_rest_lengths(d.structure, d.structure.positions, rest.rest_lengths, materials_of);
     double round_trip = 0.0;
@@ -337,6 +369,10 @@ int run_design(const DesignArgs& a) {
   if (std::isfinite(strain_lo)) info["cable_strain_range"] = {strain_lo, strain_hi};
 
   const Verification v = verify(d.structure, d.structure.positions, forces, options.tolerance);
+  if (!v.ok)
+    return no_design(a.input, "verification",
+                     "the designed forces do not verify (relative residual " + text(v.relative_residual) +
+                         (v.problems.empty() ? std::string() : ", " + v.problems.front()) + ")");
   d.solution.scene = scene.name;
   d.solution.solver = form_solver;
   d.solution.positions = d.structure.positions;
@@ -345,18 +381,40 @@ int run_design(const DesignArgs& a) {
   d.solution.stats = ff.stats;
   d.solution.stats.residual = v.residual;
   d.solution.stats.relative_residual = v.relative_residual;
-  d.solution.status = v.ok ? Status::Converged : Status::NumericalError;
+  d.solution.status = Status::Converged;
   d.strains = rest.strains;
   d.info = info;
-  write_design_file(d, a.out);
-  if (!a.sheet.empty()) write_sheet(a.sheet, d, rest.lengths);
+
+  if (compare) {
+    if (fractions.empty()) fractions = default_fraction_grid(d);
+    const bool terminal = ::isatty(STDERR_FILENO);
+    const NaiveComparison c = naive_fraction_sweep(d, fractions, settle_options, [terminal](int done, int total) {
+      if (!terminal) return;
+      std::cerr << "\rdesign: settling " << done << "/" << total << std::flush;
+      if (done == total) std::cerr << "\n";
+    });
+    std::cerr << naive_comparison_table(c, settle_options.method);
+    d.info["naive_comparison"] = naive_comparison_json(c, settle_options.method);
+  }
+
+  // The sheet first: standard output (--out -) cannot be taken back.
+  if (!a.sheet.empty()) write_text_file_atomically(a.sheet, fabrication_sheet_csv(d, rest.lengths));
+  try {
+    write_design_file(d, a.out);
+  } catch (...) {
+    if (!a.sheet.empty() && a.sheet != "-") {
+      std::error_code ec;
+      std::filesystem::remove(a.sheet, ec);
+    }
+    throw;
+  }
 
   int struts = 0, cables = 0;
   for (const auto& el : d.structure.elements) (el.kind == ElementKind::Strut ? struts : cables)++;
   std::cerr << "design: " << scene.name << ": " << struts << " struts, " << cables << " cables, cable strain "
             << text(100 * strain_lo) << "% .. " << text(100 * strain_hi) << "%, relative residual "
-            << text(v.relative_residual) << (v.ok ? "" : " (does not verify)") << "\n";
-  return v.ok ? 0 : 1;
+            << text(v.relative_residual) << "\n";
+  return 0;
 }
 
 }  // namespace
@@ -378,6 +436,15 @@ void register_design_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--time-limit", args->time_limit, "Form-finding wall-clock budget in seconds");
   cmd->add_option("--out", args->out, "Design file to write, - for standard output")->required();
   cmd->add_option("--sheet", args->sheet, "Fabrication sheet (CSV) to write");
+  cmd->add_flag("--compare-naive", args->compare_naive,
+                "Settle the design and the constant-fraction baseline under gravity for a sweep of fractions "
+                "(default: 10 fractions over the materials' strain range 0.05..max) and report the displacements");
+  cmd->add_option("--naive-fractions", args->naive_fractions,
+                  "Fractions of --compare-naive as FROM:TO:N (implies --compare-naive)");
+  cmd->add_option("--settle", args->settle,
+                  "How --compare-naive settles: relax (static equilibrium, default) or simulate (damped implicit "
+                  "Euler)");
+  cmd->add_option("--settle-duration", args->settle_duration, "Simulated seconds for --settle simulate (default 5)");
   cmd->callback([args, &run] { run = [args] { return run_design(*args); }; });
 }
 

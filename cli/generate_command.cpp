@@ -1,11 +1,16 @@
 // tensegrity generate reference [--out-dir DIR]: the analytic reference scenes
 // of data/reference/ (regular prisms n = 3..12 and the expandable octahedron,
 // each plain and with gravity, masses and fixed bottom nodes).
+// tensegrity generate tower [--gravity] [--noise X] [--seed S] --out FILE: the
+// benchmark's large tower (bench/large_scenes.hpp) as built, before form
+// finding; data/bench/tower-*.scene.json are its solved equilibria (README).
 #include <filesystem>
 #include <iostream>
 #include <memory>
 
 #include "cli/commands.hpp"
+#include "bench/large_scenes.hpp"
+#include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"
 
@@ -16,6 +21,26 @@ void register_generate_command(CLI::App& app, CommandRunner& run) {
   auto* cmd = app.add_subcommand("generate", "Write generated scene sets");
   auto* ref = cmd->add_subcommand("reference", "Regular prisms n=3..12 and the expandable octahedron");
   ref->add_option("--out-dir", *out_dir, "Folder to write into");
+  struct TowerArgs {
+    bench::LargeSceneParameters p;
+    std::string out;
+  };
+  auto tower = std::make_shared<TowerArgs>();
+  tower->p.noise = 0.0;
+  auto* tw = cmd->add_subcommand("tower", "The benchmark's tower of prisms joined by cables (not in equilibrium)");
+  tw->add_option("--layers", tower->p.layers, "Prism layers")->check(CLI::Range(1, 1000));
+  tw->add_option("--struts-per-layer", tower->p.struts_per_layer, "Struts per prism")->check(CLI::Range(3, 100));
+  tw->add_option("--cables", tower->p.cables, "Total cables (prism cables included)")->check(CLI::Range(0, 1000000));
+  tw->add_option("--noise", tower->p.noise, "Node noise, fraction of the strut length")->check(CLI::Range(0.0, 1.0));
+  tw->add_option("--seed", tower->p.seed, "Seed of the noise");
+  tw->add_flag("--gravity", tower->p.gravity, "Masses on every element, bottom ring fixed, gravity -z");
+  tw->add_option("--out", tower->out, "Scene file to write")->required();
+  tw->callback([tower, &run] {
+    run = [tower] {
+      write_scene_file(bench::make_prism_tower(tower->p), tower->out);
+      return 0;
+    };
+  });
   cmd->require_subcommand(1);
   ref->callback([out_dir, &run] {
     run = [out_dir] {

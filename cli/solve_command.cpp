@@ -1,4 +1,5 @@
 // tensegrity solve SCENE [--solver NAME] [--out FILE] [--tol T] [--option k=v]... [--trace FILE]
+//                       [--out-scene FILE]
 #include <iostream>
 #include <memory>
 
@@ -15,6 +16,7 @@ struct SolveArgs {
   std::string solver;
   std::string out = "-";
   std::string trace;
+  std::string out_scene;
   double tol = 1e-8;
   int max_iterations = 2000;
   double time_limit = 120.0;
@@ -35,6 +37,8 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds");
   cmd->add_option("--option", args->options, "Backend option key=value (repeatable)");
   cmd->add_option("--trace", args->trace, "Write the per-iteration record as CSV");
+  cmd->add_option("--out-scene", args->out_scene,
+                  "Also write the scene at the solved geometry (only when converged)");
   cmd->add_flag("--verbose", args->verbose, "Let the backend print its own log to stderr");
   cmd->add_flag("--no-skip", args->no_skip, "Do not return early when the scene is already in equilibrium");
   cmd->callback([args, &run] {
@@ -55,6 +59,13 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
       const SolveResult r = solve_scene(*solver, scene, options);
       write_solution_file(to_solution(r, scene, name), args->out);
       if (!args->trace.empty()) write_trace_csv(args->trace, r.trace);
+      // The solved geometry as a new scene (a start for further design), only
+      // for a verified equilibrium: anything else would look like one.
+      if (!args->out_scene.empty() && r.status == Status::Converged) {
+        Structure solved = scene;
+        solved.positions = r.positions;
+        write_scene_file(solved, args->out_scene);
+      }
       std::cerr << summary_line(scene, name, r) << "\n";
       return exit_status(r.status);
     };

@@ -52,11 +52,16 @@ void add_reference_scenes(std::vector<StressBaseScene>& out) {
   add(make_expandable_octahedron(o), "octahedron-gravity");
 }
 
-void add_towers(std::vector<StressBaseScene>& out) {
+// The stored equilibria of the 80-strut / 500-cable tower (bench/large_scenes.hpp),
+// when the data folder has them.
+void add_towers(std::vector<StressBaseScene>& out, const std::string& data_dir) {
   for (bool gravity : {false, true}) {
-    bench::LargeSceneParameters p;
-    p.gravity = gravity;
-    Structure s = bench::make_prism_tower(p);
+    const fs::path file =
+        fs::path(data_dir) / "bench" / (std::string("tower-80s-500c") + (gravity ? "-gravity" : "") + ".scene.json");
+    std::error_code ec;
+    if (data_dir.empty() || !fs::is_regular_file(file, ec)) continue;
+    Structure s = bench::tower_equilibrium(data_dir, gravity);
+    s.name = std::string("tower-80s-500c") + (gravity ? "-gravity" : "");
     out.push_back({s.name, "tower", std::move(s)});
   }
 }
@@ -273,7 +278,7 @@ struct Case {
 std::vector<StressBaseScene> stress_base_scenes(const std::string& data_dir) {
   std::vector<StressBaseScene> out;
   add_reference_scenes(out);
-  add_towers(out);
+  add_towers(out, data_dir);
   add_characters(out, data_dir);
   return out;
 }
@@ -469,7 +474,17 @@ StressReport run_stress_test(const StressTestOptions& options) {
       d.bytes(r.positions.data(), sizeof(double) * r.positions.size());
       d.bytes(r.forces.data(), sizeof(double) * r.forces.size());
       t.digest = d.h;
-      if (r.status != Status::Converged || !t.verified || !t.finite) failures.fetch_add(1);
+      if (r.status != Status::Converged || !t.verified || !t.finite) {
+        failures.fetch_add(1);
+        if (!options.failures_dir.empty()) {
+          try {
+            write_scene_file(c.scene, options.failures_dir + "/" + t.scene + "_" + t.family + "_" + t.level +
+                                          "_t" + std::to_string(t.trial) + "_" + t.solver + ".scene.json");
+          } catch (const std::exception& e) {
+            t.message += std::string(" (scene not saved: ") + e.what() + ")";
+          }
+        }
+      }
       done.fetch_add(1);
     }
   };

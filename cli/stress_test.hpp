@@ -47,7 +47,8 @@ struct StressBaseScene {
 };
 
 // Every benchmark scene (the reference prisms and octahedra, plain and with
-// gravity; the 80-strut tower, plain and with gravity) and every character of
+// gravity; the 80-strut tower's stored equilibria `data_dir`/bench/tower-80s-500c*.scene.json,
+// plain and with gravity) and every character of
 // `data_dir`/characters. InputError when a character file is bad.
 std::vector<StressBaseScene> stress_base_scenes(const std::string& data_dir);
 
@@ -76,6 +77,10 @@ struct StressTestOptions {
   std::string data_dir;               // holds characters/
   bool with_times = true;             // false: the report holds no timings (bit-identical runs)
   std::vector<std::string> scene_files;  // extra scenes read from files
+  // When set, the perturbed scene of every trial that did not converge and
+  // verify is written there as <scene>_<family>_<level>_t<trial>_<solver>.scene.json
+  // (to reproduce it with `tensegrity solve`).
+  std::string failures_dir;
   // Called from the coordinating thread: trials done, total, failures so far.
   std::function<void(int, int, int)> progress;
 };

@@ -31,6 +31,7 @@ struct StressArgs {
   double tol = 1e-8;
   std::string data;
   std::string out;
+  std::string failures_dir;
   bool no_times = false;
   bool quiet = false;
 };
@@ -97,6 +98,8 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget per solve (s)");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged`");
   cmd->add_option("--data", args->data, "Data folder holding characters/ (default ./data or beside the program)");
+  cmd->add_option("--save-failures", args->failures_dir,
+                  "Write the scene of every failed trial into this (existing) folder, to reproduce it");
   cmd->add_flag("--no-times", args->no_times, "Leave timings out, so equal options give a bit-identical report");
   cmd->add_flag("--quiet", args->quiet, "No progress display");
   cmd->add_option("--out", args->out, "Report file (JSON), - for standard output")->required();
@@ -115,6 +118,12 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
       o.tolerance = args->tol;
       o.data_dir = find_data_dir(args->data);
       o.with_times = !args->no_times;
+      if (!args->failures_dir.empty()) {
+        std::error_code ec;
+        if (!std::filesystem::is_directory(args->failures_dir, ec))
+          throw InputError(args->failures_dir, "--save-failures", "not a directory");
+        o.failures_dir = args->failures_dir;
+      }
       if (!args->quiet) {
         const bool tty = ::isatty(STDERR_FILENO) != 0;
         o.progress = [tty](int done, int total, int failures) { show_progress(done, total, failures, tty); };

@@ -48,6 +48,9 @@ struct StressQp::Impl {
   std::vector<char> held, factored_held;  // W of the current step / of the factorization
 
   // Work space, sized once per topology.
+  Eigen::VectorXd center;
+  // Interior-point work space.
+  Eigen::VectorXd ip_h, ip_rd, ip_zl, ip_zu, ip_d, ip_rhs, ip_dx, ip_dx_aff, ip_dzl, ip_dzu, ip_tmp;
   Eigen::VectorXd s, g, d, trial, step, rhs, lin_res, op_out, masked, best_s;
   Eigen::VectorXd aug_rhs, aug_sol;
   Eigen::VectorXd r, a_step;  // equation-sized
@@ -56,6 +59,11 @@ struct StressQp::Impl {
   bool pattern_matches(const SparseMatrix& A) const;
   bool refresh(const SparseMatrix& A);
   bool factorize(const std::vector<char>& hold);
+  bool factorize_with_diagonal(const Eigen::VectorXd& extra);
+  bool solve_with_diagonal(const SparseMatrix& A, const Eigen::VectorXd& extra, const Eigen::VectorXd& b,
+                           Eigen::VectorXd& x);
+  int interior_point(const SparseMatrix& A, const Eigen::VectorXd* fg, const Eigen::VectorXd& center,
+                     double scale, Eigen::VectorXd& x);
   void apply_normal(const SparseMatrix& A, const Eigen::VectorXd& x, Eigen::VectorXd& out);
   void apply_modified(const Eigen::VectorXd& x, const SparseMatrix& A, Eigen::VectorXd& out);
   bool solve_modified(const SparseMatrix& A, const Eigen::VectorXd& b, Eigen::VectorXd& x);
@@ -274,6 +282,170 @@ bool StressQp::Impl::solve_modified(const SparseMatrix& A, const Eigen::VectorXd
   return x.allFinite();
 }
 
+bool StressQp::Impl::factorize_with_diagonal(const Eigen::VectorXd& extra) {
+  double* values = K.valuePtr();
+  const int nnz = static_cast<int>(base.size());
+  for (int k = 0; k < nnz; ++k) {
+    values[k] = base[k];
+    if (k_row[k] == k_col[k] && k_row[k] < m) values[k] += extra[k_row[k]];
+  }
+  ldlt.factorize(K);
+  factorization_valid = false;  // not the factorization of a held set
+  return ldlt.info() == Eigen::Success;
+}
+
+// (N + diag(extra)) x = b with the current factorization, refined against N + diag(extra).
+bool StressQp::Impl::solve_with_diagonal(const SparseMatrix& A, const Eigen::VectorXd& extra,
+                                         const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  aug_rhs.head(m) = b;
+  aug_rhs[m] = 0.0;
+  aug_sol = ldlt.solve(aug_rhs);
+  x = aug_sol.head(m);
+  double previous = kInf;
+  for (int refinement = 0; refinement < 3; ++refinement) {
+    apply_normal(A, x, op_out);
+    lin_res = b - op_out - extra.cwiseProduct(x);
+    const double res_norm = lin_res.lpNorm<Eigen::Infinity>();
+    if (!std::isfinite(res_norm)) return false;
+    if (res_norm <= 4.0 * kEps * b.lpNorm<Eigen::Infinity>() || res_norm > 0.5 * previous) break;
+    previous = res_norm;
+    aug_rhs.head(m) = lin_res;
+    aug_rhs[m] = 0.0;
+    aug_sol = ldlt.solve(aug_rhs);
+    x += aug_sol.head(m);
+  }
+  return x.allFinite();
+}
+
+// Mehrotra predictor-corrector interior-point method for the bound-
+// constrained QP min 1/2 x'Nx + h'x, lower <= x <= upper, from a strictly
+// interior point. Why: from a cold start on near-mechanisms (many forces end
+// at a bound, A^T A nearly singular) the projected Newton iteration changes
+// the active set a few forces at a time and needs hundreds of
+// factorizations; the interior-point iteration needs some 15-40 whatever the
+// number of active bounds, each a factorization of the same pattern. It
+// returns a point close to the optimum, whose active set the projected
+// Newton iteration then confirms in a few steps. Returns the number of
+// factorizations (x is left at the last iterate).
+int StressQp::Impl::interior_point(const SparseMatrix& A, const Eigen::VectorXd* fg,
+                                   const Eigen::VectorXd& centre, double scale, Eigen::VectorXd& x) {
+  for (Eigen::VectorXd* v : {&ip_rd, &ip_d, &ip_rhs, &ip_dx, &ip_dx_aff}) v->resize(m);
+  // h = A^T f_g - w^2 t c - mu centre.
+  ip_h.setZero(m);
+  if (fg) ip_h.noalias() = A.transpose() * (*fg);
+  ip_h -= (w2 * target) * c + mu * centre;
+  // Strictly interior start: one F0-scale away from every finite bound.
+  const double gap = std::max(scale, 1e-300);
+  for (int i = 0; i < m; ++i) {
+    const bool lo = lower[i] > -kInf, hi = upper[i] < kInf;
+    if (lo && hi) x[i] = 0.5 * (lower[i] + upper[i]);
+    else if (lo) x[i] = std::max(x[i], lower[i] + gap);
+    else if (hi) x[i] = std::min(x[i], upper[i] - gap);
+  }
+  ip_zl.setZero(m);
+  ip_zu.setZero(m);
+  int bounds = 0;
+  for (int i = 0; i < m; ++i) {
+    if (lower[i] > -kInf && x[i] > lower[i]) { ip_zl[i] = gap; ++bounds; }
+    if (upper[i] < kInf && x[i] < upper[i]) { ip_zu[i] = gap; ++bounds; }
+  }
+  if (bounds == 0) return 0;
+  auto s_lower = [&](int i) { return x[i] - lower[i]; };
+  auto s_upper = [&](int i) { return upper[i] - x[i]; };
+  auto complementarity = [&]() {
+    double sum = 0.0;
+    for (int i = 0; i < m; ++i) {
+      if (ip_zl[i] > 0.0) sum += s_lower(i) * ip_zl[i];
+      if (ip_zu[i] > 0.0) sum += s_upper(i) * ip_zu[i];
+    }
+    return sum / bounds;
+  };
+  // Largest step in (0, 1] keeping slacks and multipliers positive (fraction to the boundary).
+  auto step_length = [&](const Eigen::VectorXd& dx, const Eigen::VectorXd& dzl, const Eigen::VectorXd& dzu,
+                         double fraction) {
+    double alpha = 1.0;
+    for (int i = 0; i < m; ++i) {
+      if (ip_zl[i] > 0.0) {
+        if (dx[i] < 0.0) alpha = std::min(alpha, -fraction * s_lower(i) / dx[i]);
+        if (dzl[i] < 0.0) alpha = std::min(alpha, -fraction * ip_zl[i] / dzl[i]);
+      }
+      if (ip_zu[i] > 0.0) {
+        if (dx[i] > 0.0) alpha = std::min(alpha, fraction * s_upper(i) / dx[i]);
+        if (dzu[i] < 0.0) alpha = std::min(alpha, -fraction * ip_zu[i] / dzu[i]);
+      }
+    }
+    return alpha;
+  };
+  ip_dzl.setZero(m);
+  ip_dzu.setZero(m);
+  int factorizations = 0;
+  for (int iteration = 0; iteration < 60; ++iteration) {
+    // Dual residual r_d = N x + h - z_l + z_u.
+    apply_normal(A, x, ip_rd);
+    ip_rd += ip_h - ip_zl + ip_zu;
+    const double gap_now = complementarity();
+    if (!std::isfinite(gap_now) || !ip_rd.allFinite()) break;
+    if (ip_rd.lpNorm<Eigen::Infinity>() <= 1e-10 * scale && gap_now <= 1e-12 * scale * scale) break;
+    for (int i = 0; i < m; ++i)
+      ip_d[i] = (ip_zl[i] > 0.0 ? ip_zl[i] / s_lower(i) : 0.0) + (ip_zu[i] > 0.0 ? ip_zu[i] / s_upper(i) : 0.0);
+    ++factorizations;
+    if (!factorize_with_diagonal(ip_d)) break;
+    // Predictor (tau = 0): (N + D) dx = -(N x + h).
+    ip_rhs = -ip_rd - ip_zl + ip_zu;
+    if (!solve_with_diagonal(A, ip_d, ip_rhs, ip_dx_aff)) break;
+    for (int i = 0; i < m; ++i) {
+      ip_dzl[i] = ip_zl[i] > 0.0 ? -ip_zl[i] - ip_zl[i] / s_lower(i) * ip_dx_aff[i] : 0.0;
+      ip_dzu[i] = ip_zu[i] > 0.0 ? -ip_zu[i] + ip_zu[i] / s_upper(i) * ip_dx_aff[i] : 0.0;
+    }
+    const double alpha_aff = step_length(ip_dx_aff, ip_dzl, ip_dzu, 1.0);
+    double gap_aff = 0.0;
+    for (int i = 0; i < m; ++i) {
+      if (ip_zl[i] > 0.0) gap_aff += (s_lower(i) + alpha_aff * ip_dx_aff[i]) * (ip_zl[i] + alpha_aff * ip_dzl[i]);
+      if (ip_zu[i] > 0.0) gap_aff += (s_upper(i) - alpha_aff * ip_dx_aff[i]) * (ip_zu[i] + alpha_aff * ip_dzu[i]);
+    }
+    gap_aff /= bounds;
+    const double tau = std::pow(std::max(0.0, gap_aff / gap_now), 3) * gap_now;
+    // Corrector with Mehrotra's second-order term: per bound, tau' = tau - ds_aff dz_aff.
+    ip_rhs = -ip_rd;
+    for (int i = 0; i < m; ++i) {
+      if (ip_zl[i] > 0.0) {
+        const double t = tau - ip_dx_aff[i] * ip_dzl[i];
+        ip_rhs[i] += t / s_lower(i) - ip_zl[i];
+      }
+      if (ip_zu[i] > 0.0) {
+        const double t = tau + ip_dx_aff[i] * ip_dzu[i];  // ds_u = -dx
+        ip_rhs[i] -= t / s_upper(i) - ip_zu[i];
+      }
+    }
+    if (!solve_with_diagonal(A, ip_d, ip_rhs, ip_dx)) break;
+    for (int i = 0; i < m; ++i) {
+      if (ip_zl[i] > 0.0) {
+        const double t = tau - ip_dx_aff[i] * ip_dzl[i];
+        ip_dzl[i] = (t - s_lower(i) * ip_zl[i] - ip_zl[i] * ip_dx[i]) / s_lower(i);
+      }
+      if (ip_zu[i] > 0.0) {
+        const double t = tau + ip_dx_aff[i] * ip_dzu[i];
+        ip_dzu[i] = (t - s_upper(i) * ip_zu[i] + ip_zu[i] * ip_dx[i]) / s_upper(i);
+      }
+    }
+    const double alpha = step_length(ip_dx, ip_dzl, ip_dzu, 0.995);
+    if (!(alpha > 0.0)) break;
+    x += alpha * ip_dx;
+    for (int i = 0; i < m; ++i) {
+      if (ip_zl[i] > 0.0) ip_zl[i] = std::max(ip_zl[i] + alpha * ip_dzl[i], 1e-300);
+      if (ip_zu[i] > 0.0) ip_zu[i] = std::max(ip_zu[i] + alpha * ip_dzu[i], 1e-300);
+    }
+  }
+  // Crossover: a bound whose slack is below its multiplier is taken as
+  // active (strict complementarity), so the projected Newton iteration
+  // starts from the predicted active set instead of re-discovering it.
+  for (int i = 0; i < m; ++i) {
+    if (ip_zl[i] > 0.0 && s_lower(i) < ip_zl[i]) x[i] = lower[i];
+    if (ip_zu[i] > 0.0 && s_upper(i) < ip_zu[i]) x[i] = upper[i];
+  }
+  return factorizations;
+}
+
 void StressQp::Impl::residual(const SparseMatrix& A, const Eigen::VectorXd* fg,
                               const Eigen::VectorXd& x, Eigen::VectorXd& res) const {
   res.noalias() = A * x;
@@ -324,12 +496,16 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
   auto gradient_scale = [&](const Eigen::VectorXd& x) {
     return std::max({q.f0, x.lpNorm<Eigen::Infinity>(), fg_max});
   };
-  // r = A s + f_g and g = A^T r + w^2 c (c^T s - t) + mu_term s.
+  // The regulariser's centre: the origin (the paper's smallest forces) or,
+  // with options_.proximal, the (projected) starting point.
+  if (options_.proximal) q.center = q.s;
+  else q.center.setZero(m);
+  // r = A s + f_g and g = A^T r + w^2 c (c^T s - t) + mu_term (s - centre).
   auto evaluate = [&](const Eigen::VectorXd& x, double mu_term) {
     q.residual(A, fg, x, q.r);
     q.g.noalias() = A.transpose() * q.r;
     const double e = q.c.dot(x) - q.target;
-    q.g += (q.w2 * e) * q.c + mu_term * x;
+    q.g += (q.w2 * e) * q.c + mu_term * (x - q.center);
   };
 
   bool ok = options_.IsValid() && q.refresh(A) && (fg == nullptr || std::isfinite(fg_max));
@@ -342,10 +518,29 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
   // when that point is worse), safeguarded by a return to the best point.
   double best_objective = kInf;
   int nonmonotone_left = 8;
+  bool interior_point_used = false, stuck = false;
   for (int iteration = 0; ok; ++iteration) {
+    if (!interior_point_used && options_.interior_point_after >= 0 &&
+        (iteration == options_.interior_point_after || stuck)) {
+      // The active set is changing a few forces at a time (a near-mechanism
+      // with many forces at a bound): an interior-point phase finds the
+      // neighbourhood of the optimum in some 15-40 factorizations whatever
+      // the number of bounds involved; the projected Newton steps then
+      // confirm its active set. Its point already holds the small forces the
+      // mu term asks for (to the accuracy that mu's weak curvature allows,
+      // ~1e-4 relative), so mu is centred on it from here on: the pull
+      // towards the origin would otherwise trade residual for norm again.
+      interior_point_used = true;
+      result.factorizations += q.interior_point(A, fg, q.center, std::max(q.f0, fg_max), q.s);
+      for (int i = 0; i < m; ++i) q.s[i] = q.project(i, std::isfinite(q.s[i]) ? q.s[i] : 0.0);
+      q.center = q.s;
+      best_objective = kInf;
+      nonmonotone_left = 8;
+      last_step_exact = false;
+    }
     evaluate(q.s, q.mu);
     const double objective = 0.5 * (q.r.squaredNorm() + q.w2 * std::pow(q.c.dot(q.s) - q.target, 2) +
-                                    q.mu * q.s.squaredNorm());
+                                    q.mu * (q.s - q.center).squaredNorm());
     const bool record = objective < best_objective;
     if (record) {
       best_objective = objective;
@@ -360,6 +555,15 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
     for (int i = 0; i < m; ++i) pg = std::max(pg, std::abs(q.s[i] - q.project(i, q.s[i] - q.g[i])));
     if (!std::isfinite(pg)) { ok = false; break; }
     if (pg <= tol * gradient_scale(q.s)) { settled = true; break; }
+    // Already an equilibrium to rounding accuracy (a warm start from a
+    // solution): the mu term would only trade that residual for a smaller
+    // norm, and on near-mechanisms (tiny singular values of A) it costs many
+    // active-set changes and digits of residual that the polish cannot win back.
+    if (q.r.lpNorm<Eigen::Infinity>() <= tol * gradient_scale(q.s) &&
+        std::sqrt(q.w2) * std::abs(q.c.dot(q.s) - q.target) <= tol * gradient_scale(q.s)) {
+      settled = true;
+      break;
+    }
 
     // Held set W: forces at a bound with the gradient pushing out. (Bertsekas'
     // epsilon-enlarged set, which also holds forces merely near a bound,
@@ -463,7 +667,11 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
       }
       full_step = false;
     }
-    if (!(best > 0.0)) break;  // no progress is possible at rounding level
+    if (!(best > 0.0)) {  // no progress is possible at rounding level
+      if (interior_point_used) break;
+      stuck = true;  // unless the interior-point phase finds a better neighbourhood
+      continue;
+    }
     // An unclipped full Newton step that left every held force at its bound
     // solved the subproblem of this held set exactly: if the next gradient
     // holds the same set, the active set has settled.
@@ -484,30 +692,32 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
       factored = q.factorize(q.held);
     }
     if (factored) {
-      auto free_gradient_norm = [&]() {
+      // Progress is measured by the objective without the mu term (what the
+      // polish exists to reduce); the free gradient need not fall monotonically.
+      auto residual_objective = [&]() {
         evaluate(q.s, 0.0);
-        double worst = 0.0;
-        for (int i = 0; i < m; ++i) {
-          if (q.held[i]) q.g[i] = 0.0;
-          worst = std::max(worst, std::abs(q.g[i]));
-        }
-        return worst;
+        const double e = q.c.dot(q.s) - q.target;
+        return q.r.squaredNorm() + q.w2 * e * e;
       };
-      double current = free_gradient_norm();
-      for (int step = 0; step < options_.max_polish_steps && current > 0.0; ++step) {
+      double current = residual_objective();
+      const double floor = std::pow(4.0 * kEps * gradient_scale(q.s), 2);
+      for (int step = 0; step < options_.max_polish_steps && current > floor; ++step) {
+        for (int i = 0; i < m; ++i)
+          if (q.held[i]) q.g[i] = 0.0;
         q.rhs = -q.g;
         if (!q.solve_modified(A, q.rhs, q.d)) break;
         q.trial = q.s;
         for (int i = 0; i < m; ++i)
           if (!q.held[i]) q.s[i] = q.project(i, q.s[i] + q.d[i]);
-        const double next = free_gradient_norm();
+        const double next = residual_objective();
         if (!(next < current)) {  // rounding level reached: keep the better point
           q.s = q.trial;
           break;
         }
         ++result.polish_steps;
+        const bool slow = next > 0.99 * current;
         current = next;
-        if (current <= 4.0 * kEps * gradient_scale(q.s)) break;
+        if (slow) break;
       }
     } else {
       ok = false;
@@ -528,7 +738,7 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
   result.max_node_residual = max_node;
   double kkt = 0.0;
   for (int i = 0; i < m; ++i) {
-    const double allowance = q.mu * std::abs(q.s[i]);
+    const double allowance = q.mu * std::abs(q.s[i] - q.center[i]);
     const bool at_lower = q.s[i] <= q.lower[i], at_upper = q.s[i] >= q.upper[i];
     double violation = std::abs(q.g[i]);
     if (at_lower && at_upper) violation = 0.0;

@@ -62,7 +62,15 @@ struct StressQpOptions {
   // max(F0, |sigma|_inf, |f_g|_inf). Never taken below 32 eps sqrt(m + 1),
   // the rounding level of the gradient itself.
   double optimality_tolerance = 1e-13;
-  int max_polish_steps = 8;          // iterated-Tikhonov steps on the final free set
+  int max_polish_steps = 30;         // iterated-Tikhonov steps on the final free set (stops early when slow)
+  // Centre the mu term on the starting point instead of the origin: among
+  // equally good forces, those closest to the warm start. A warm start that
+  // is already an equilibrium then stays one, where the pull towards the
+  // origin would trade residual for norm on near-mechanisms.
+  bool proximal = false;
+  // After this many projected-Newton iterations without settling, one
+  // Mehrotra interior-point phase (see stress_qp.cpp); negative: never.
+  int interior_point_after = 20;
   bool IsValid() const;              // mu > 0, w >= 0, all finite, counts >= 0
 };
 

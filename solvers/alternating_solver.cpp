@@ -4,6 +4,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -202,6 +203,9 @@ class PartSolve {
   }
 
   SolveResult run();
+  // The run ended at a stall or on the iteration budget (not on time, not
+  // for a reason a restart cannot change).
+  bool restartable() const { return restartable_; }
 
  private:
   static StressQpOptions make_qp_options(const AlternatingOptions& alt) {
@@ -249,6 +253,7 @@ class PartSolve {
 
   void faithful_phase();
   void gauss_newton_phase();
+  bool try_step(const SparseMatrix& J, const SparseMatrix& A, const Eigen::VectorXd* anchor_offset);
   SolveResult finish(Status status, std::string message);
 
   const Structure& part_;
@@ -274,6 +279,9 @@ class PartSolve {
   bool sigma_is_qp_optimal_ = true;
   bool trial_is_qp_optimal_ = true;
   double trust_radius_ = 0.0;
+  bool restartable_ = false;
+  double last_step_ = 1.0, last_largest_move_ = 0.0;  // of the last rejected trial
+  Eigen::VectorXd anchor_offset_, rhs_anchor_;
 };
 
 // Algorithm 1, lines 3-9, at fixed sigma; then line 2 of the next iteration.
@@ -319,6 +327,83 @@ void PartSolve::faithful_phase() {
   phi_ = solve_stress(sigma_, f_);
 }
 
+// One trial of the joint step from the solution y_ of the normal equations:
+// dq = (L^2 / F0) J^T y (+ the anchor offset q0 - q), dsigma from A^T y.
+// Returns true when the iteration is over (accepted, or a non-finite step that
+// raised the damping); false leaves the state unchanged.
+//
+// The anchored step must also reduce Eq. 4's objective by at least a quarter
+// of what its linearisation predicts: its pull towards the input geometry
+// otherwise trades residual for distance in many tiny steps.
+bool PartSolve::try_step(const SparseMatrix& J, const SparseMatrix& A, const Eigen::VectorXd* anchor_offset) {
+  const double L = length_scale_, F0 = scale_.reference_force;
+  const int nq = eq_.num_equations();
+  const bool norm = scale_.has_normalisation();
+  const double wn = qp_options_.normalisation_weight;
+  // dq = L dq_hat = (L^2 / F0) J^T y;  dsigma = F0 dsigma_hat = F0 ws (A^T y + wn c y_n).
+  dq_.noalias() = J.transpose() * y_.head(nq);
+  dq_ *= L * L / F0;
+  if (anchor_offset) dq_ += *anchor_offset;
+  dsigma_.noalias() = A.transpose() * y_.head(nq);
+  if (norm) dsigma_ += (wn * y_[nq]) * scale_.normalisation_row;
+  dsigma_ = (F0 * dsigma_.array() * force_weight_.array()).matrix();
+
+  double largest_move = 0.0;
+  for (int k = 0; k < nq / 3; ++k) largest_move = std::max(largest_move, dq_.segment<3>(3 * k).norm());
+  if (!std::isfinite(largest_move) || !dsigma_.allFinite()) {
+    lambda_relative_ *= 100.0;
+    stalled_ = lambda_relative_ > 1e12;
+    return true;
+  }
+  const double step = largest_move > trust_radius_ ? trust_radius_ / largest_move : 1.0;
+  q_trial_ = q_ + step * dq_;
+  sigma_trial_ = sigma_ + step * dsigma_;
+  const bool crosses_bound =
+      (sigma_trial_.array() < scale_.lower.array()).any() || (sigma_trial_.array() > scale_.upper.array()).any();
+  eq_.set_free_coordinates(q_trial_);
+  double phi_trial;
+  // f is linear in sigma, so a joint step that keeps every sign needs no QP;
+  // the QP restores the bounds (and frees elements held at them) otherwise.
+  if (crosses_bound) sigma_trial_ = sigma_trial_.cwiseMax(scale_.lower).cwiseMin(scale_.upper);
+  if ((crosses_bound && alt_.qp_on_crossing) || alt_.qp_every_step || alt_.sigma_weight == 0.0) {
+    phi_trial = solve_stress(sigma_trial_, f_trial_);
+    trial_is_qp_optimal_ = true;
+  } else {
+    ++evaluations_;
+    phi_trial = objective(sigma_trial_, f_trial_);
+    trial_is_qp_optimal_ = false;
+  }
+  double required = phi_;
+  if (anchor_offset) {
+    jd_.noalias() = J * dq_;
+    jd_.noalias() += A * dsigma_;
+    f_scratch_ = f_ + step * jd_;
+    double predicted = f_scratch_.squaredNorm();
+    if (norm) {
+      const double n = scale_.normalisation_row.dot(sigma_) + step * scale_.normalisation_row.dot(dsigma_) -
+                       scale_.normalisation_target;
+      predicted += wn * wn * n * n;
+    }
+    required = phi_ - 0.25 * std::max(0.0, phi_ - predicted);
+  }
+  if (phi_trial < required) {
+    last_move_ = step * std::sqrt(dq_.squaredNorm());
+    q_.swap(q_trial_);
+    sigma_.swap(sigma_trial_);
+    f_.swap(f_trial_);
+    phi_ = phi_trial;
+    sigma_is_qp_optimal_ = trial_is_qp_optimal_;
+    lambda_relative_ = std::max(1e-15, lambda_relative_ * 0.1);
+    if (step < 1.0) trust_radius_ = std::min(2.0 * trust_radius_, alt_.max_step * L);
+    stalled_ = last_move_ < alt_.epsilon_cvg * L && sigma_is_qp_optimal_;
+    return true;
+  }
+  eq_.set_free_coordinates(q_);
+  last_step_ = step;
+  last_largest_move_ = largest_move;
+  return false;
+}
+
 // One damped Gauss-Newton trial in z = (q, sigma), then the stress QP.
 void PartSolve::gauss_newton_phase() {
   const double L = length_scale_, F0 = scale_.reference_force;
@@ -353,52 +438,20 @@ void PartSolve::gauss_newton_phase() {
     stalled_ = true;
     return;
   }
+  // Two right-hand sides with one factorization: the anchored step first
+  // (towards the input geometry, see try_step), then the plain one.
+  if (alt_.anchor) {
+    anchor_offset_ = q0_ - q_;
+    jd_.noalias() = J * anchor_offset_;
+    rhs_anchor_ = rhs_;
+    rhs_anchor_.head(nq) -= jd_ / F0;
+    if (anchor_offset_.squaredNorm() > 0.0) {
+      normal_->solve(rhs_anchor_, y_);
+      if (try_step(J, A, &anchor_offset_)) return;
+    }
+  }
   normal_->solve(rhs_, y_);
-  // dq = L dq_hat = (L^2 / F0) J^T y;  dsigma = F0 dsigma_hat = F0 ws (A^T y + wn c y_n).
-  dq_.noalias() = J.transpose() * y_.head(nq);
-  dq_ *= L * L / F0;
-  dsigma_.noalias() = A.transpose() * y_.head(nq);
-  if (norm) dsigma_ += (wn * y_[nq]) * scale_.normalisation_row;
-  dsigma_ = (F0 * dsigma_.array() * force_weight_.array()).matrix();
-
-  double largest_move = 0.0;
-  for (int k = 0; k < nq / 3; ++k) largest_move = std::max(largest_move, dq_.segment<3>(3 * k).norm());
-  if (!std::isfinite(largest_move) || !dsigma_.allFinite()) {
-    lambda_relative_ *= 100.0;
-    stalled_ = lambda_relative_ > 1e12;
-    return;
-  }
-  const double step = largest_move > trust_radius_ ? trust_radius_ / largest_move : 1.0;
-  q_trial_ = q_ + step * dq_;
-  sigma_trial_ = sigma_ + step * dsigma_;
-  const bool crosses_bound =
-      (sigma_trial_.array() < scale_.lower.array()).any() || (sigma_trial_.array() > scale_.upper.array()).any();
-  eq_.set_free_coordinates(q_trial_);
-  double phi_trial;
-  // f is linear in sigma, so a joint step that keeps every sign needs no QP;
-  // the QP restores the bounds (and frees elements held at them) otherwise.
-  if (crosses_bound) sigma_trial_ = sigma_trial_.cwiseMax(scale_.lower).cwiseMin(scale_.upper);
-  if ((crosses_bound && alt_.qp_on_crossing) || alt_.qp_every_step || alt_.sigma_weight == 0.0) {
-    phi_trial = solve_stress(sigma_trial_, f_trial_);
-    trial_is_qp_optimal_ = true;
-  } else {
-    ++evaluations_;
-    phi_trial = objective(sigma_trial_, f_trial_);
-    trial_is_qp_optimal_ = false;
-  }
-  if (phi_trial < phi_) {
-    last_move_ = step * std::sqrt(dq_.squaredNorm());
-    q_.swap(q_trial_);
-    sigma_.swap(sigma_trial_);
-    f_.swap(f_trial_);
-    phi_ = phi_trial;
-    sigma_is_qp_optimal_ = trial_is_qp_optimal_;
-    lambda_relative_ = std::max(1e-15, lambda_relative_ * 0.1);
-    if (step < 1.0) trust_radius_ = std::min(2.0 * trust_radius_, alt_.max_step * L);
-    stalled_ = last_move_ < alt_.epsilon_cvg * L && sigma_is_qp_optimal_;
-    return;
-  }
-  eq_.set_free_coordinates(q_);
+  if (try_step(J, A, nullptr)) return;
   if (!sigma_is_qp_optimal_) {
     // Re-optimise the forces at the current geometry before damping further.
     phi_ = solve_stress(sigma_, f_);
@@ -406,7 +459,7 @@ void PartSolve::gauss_newton_phase() {
     return;
   }
   lambda_relative_ *= 10.0;
-  trust_radius_ = 0.5 * std::min(trust_radius_, step * largest_move);
+  trust_radius_ = 0.5 * std::min(trust_radius_, last_step_ * last_largest_move_);
   stalled_ = lambda_relative_ > 1e12 || trust_radius_ < alt_.epsilon_cvg * L;
 }
 
@@ -475,11 +528,20 @@ SolveResult PartSolve::run() {
       return finish(Status::Converged, iteration == 0 ? "in equilibrium at the input geometry"
                                                       : "converged after " + std::to_string(iteration) +
                                                             " outer iterations");
-    if (stalled_)
+    // Stagnation: a GN run whose objective fell by less than 10 % over the
+    // last 200 outer iterations is at (or crawling along) a local minimum.
+    if (gauss_newton_ && iteration >= 200 &&
+        !(phi_ < 0.9 * recorder_.trace()[recorder_.trace().size() - 201].objective))
+      stalled_ = true;
+    if (stalled_) {
+      restartable_ = true;
       return finish(Status::Infeasible, "stalled at a local minimum of Eq. 4 with relative residual " +
                                             std::to_string(p.relative_residual));
-    if (iteration >= options_.max_iterations)
+    }
+    if (iteration >= options_.max_iterations) {
+      restartable_ = true;
       return finish(Status::MaxIterations, "outer iteration budget spent");
+    }
     if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent");
     if (gauss_newton_)
       gauss_newton_phase();
@@ -504,6 +566,8 @@ AlternatingOptions read_alternating_options(const SolveOptions& options, bool ga
     o.qp_every_step = reader.boolean("qp_every_step", o.qp_every_step);
     o.qp_on_crossing = reader.boolean("qp_on_crossing", o.qp_on_crossing);
     o.move_bound_forces = reader.boolean("move_bound_forces", o.move_bound_forces);
+    o.anchor = reader.boolean("anchor", o.anchor);
+    o.restarts = reader.integer("restarts", o.restarts, 0);
     o.lambda = reader.number("lambda", o.lambda, 0.0);
     if (o.sigma_weight < 0.0) throw InputError("command line", "--option sigma_weight", "must be >= 0");
   } else {
@@ -524,8 +588,46 @@ SolveResult AlternatingSolver::solve_part(const Structure& part, const SolveOpti
 
 SolveResult AlternatingSolver::solve_part(const Structure& part, const SolveOptions& options,
                                           const AlternatingOptions& alternating) const {
-  PartSolve solve(part, options, alternating, gauss_newton_);
-  return solve.run();
+  if (!gauss_newton_ || alternating.restarts <= 0) {
+    PartSolve solve(part, options, alternating, gauss_newton_);
+    return solve.run();
+  }
+  // Restarts from the input geometry with other step weights when a run
+  // stalls: which local minimum of Eq. 4 the iteration falls into depends on
+  // how much it lets the forces move against the positions (sigma_weight) and
+  // how far it steps (max_step), and each run costs a few milliseconds on
+  // small scenes. The trace is the successful (or last) run's, its times
+  // counted from the start of the first run.
+  const auto start = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  const double weights[] = {1.0, 10.0, 1.0, 3.0, 1.0, 0.1};
+  const double steps[] = {1.0, 1.0, 1.0, 1.0, 0.2, 1.0};
+  const double lambdas[] = {1.0, 1.0, 1e5, 1.0, 1.0, 1.0};
+  const int attempts = std::min(1 + alternating.restarts, 6);
+  SolveResult best;
+  int iterations = 0;
+  for (int a = 0; a < attempts; ++a) {
+    AlternatingOptions o = alternating;
+    o.sigma_weight *= weights[a];
+    o.max_step *= steps[a];
+    o.lambda *= lambdas[a];
+    SolveOptions so = options;
+    so.time_limit_s = options.time_limit_s - elapsed();
+    so.max_iterations = options.max_iterations - iterations;
+    if (a > 0 && (so.time_limit_s <= 0.0 || so.max_iterations <= 0)) break;
+    const double offset = elapsed();
+    PartSolve solve(part, so, o, true);
+    SolveResult r = solve.run();
+    iterations += r.stats.iterations;
+    for (TracePoint& p : r.trace) p.seconds += offset;
+    const bool better = a == 0 || r.status == Status::Converged ||
+                        (best.status != Status::Converged && r.stats.relative_residual < best.stats.relative_residual);
+    if (better) best = std::move(r);
+    if (best.status == Status::Converged || !solve.restartable()) break;
+  }
+  best.stats.iterations = iterations;
+  best.stats.seconds = elapsed();
+  return best;
 }
 
 std::unique_ptr<Solver> make_alternating_solver() { return std::make_unique<AlternatingSolver>(false); }

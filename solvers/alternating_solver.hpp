@@ -67,6 +67,9 @@ struct AlternatingOptions {
   bool qp_every_step = false;    // run the stress QP after every step, not only when a sign bound is crossed
   bool qp_on_crossing = true;    // run it when a force would cross its bound (else: clip, hold it there)
   bool move_bound_forces = false;  // let forces held at a sign bound move in the joint step
+  bool anchor = true;            // try the step anchored at the input geometry first (see above)
+  int restarts = 5;              // after a stall, runs again from the input with sigma_weight x10,
+                                 // lambda x1e5, sigma_weight x3, max_step x0.2, sigma_weight x0.1
 };
 
 // Reads the backend options ("gamma", "i_max", "epsilon_cvg", "mu", "margin";

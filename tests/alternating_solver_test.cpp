@@ -3,6 +3,8 @@
 // objective, scale invariance, the equilibrium shortcut, infeasible parts.
 #include "solvers/alternating_solver.hpp"
 
+#include <cstdio>
+#include <utility>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -93,38 +95,60 @@ void run_cases(const std::vector<Case>& cases) {
   }
 }
 
-TEST(AlternatingSolver, PerturbedPrismsConverge) {
+// The grid: prisms n = 3..12, twist off by 5, 10, 15 and 20 degrees,
+// node noise of `noise` times the strut length; plain, or with masses,
+// gravity and a fixed bottom ring.
+std::vector<Case> prism_grid(double noise, bool gravity) {
   std::vector<Case> cases;
-  for (int n = 3; n <= 12; ++n) {
-    const double twist = 5.0 + 5.0 * (n % 4);  // 5, 10, 15, 20 degrees across n
-    for (double noise : {0.01, 0.05}) {
-      cases.push_back({"prism-" + std::to_string(n) + " noise " + std::to_string(noise) + " twist " +
-                           std::to_string(twist),
-                       perturbed(prism(n, twist, false), noise, 100 * n + static_cast<unsigned>(noise * 100))});
+  for (int n = 3; n <= 12; ++n)
+    for (double twist : {5.0, 10.0, 15.0, 20.0}) {
+      const unsigned seed = 1000 * n + 10 * static_cast<unsigned>(noise * 100) + static_cast<unsigned>(twist / 5) +
+                            (gravity ? 500 : 0);
+      cases.push_back({std::string(gravity ? "gravity " : "") + "prism-" + std::to_string(n) + " noise " +
+                           std::to_string(noise) + " twist " + std::to_string(twist) + " seed " + std::to_string(seed),
+                       perturbed(prism(n, twist, gravity), noise, seed)});
     }
-  }
-  run_cases(cases);
+  return cases;
 }
 
-// 15 % noise: a subset. Known failures of both variants (Infeasible / budget):
-// prism-10 (seed 70) and prism-12 (seed 84) below, gravity prism-9 (seed 279).
-TEST(AlternatingSolver, StronglyPerturbedPrismsConverge) {
-  std::vector<Case> cases;
-  for (int n : {3, 4, 6, 8})
-    cases.push_back({"prism-" + std::to_string(n) + " noise 0.15 twist 20",
-                     perturbed(prism(n, 20.0, false), 0.15, 7 * n)});
-  run_cases(cases);
+TEST(AlternatingSolver, PerturbedPrismsConverge) {
+  for (double noise : {0.01, 0.05}) run_cases(prism_grid(noise, false));
 }
 
 TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
-  std::vector<Case> cases;
-  for (int n = 3; n <= 12; ++n) {
-    const double twist = 20.0 - 5.0 * (n % 4);
-    const double noise = n == 9 ? 0.05 : (n % 3 == 0 ? 0.15 : (n % 3 == 1 ? 0.05 : 0.01));
-    cases.push_back({"gravity prism-" + std::to_string(n) + " noise " + std::to_string(noise),
-                     perturbed(prism(n, twist, true), noise, 31 * n)});
+  for (double noise : {0.01, 0.05}) run_cases(prism_grid(noise, true));
+}
+
+// 15 % noise moves nodes by about a third of a 12-gon's side: some of these
+// scenes are far from any tensegrity, and Ipopt's Eq. 5 fails on several of
+// them too (prism-10 seed 10151, prism-12 seeds 12151 and 12154: 2000
+// iterations at relative residual 3e-3..1.7). The test pins the measured
+// success counts (80 scenes) and that every failure is a clean status with
+// finite numbers; README "alternating" lists the failing seeds.
+TEST(AlternatingSolver, StronglyPerturbedPrismsMostlyConvergeAndFailCleanly) {
+  std::vector<Case> cases = prism_grid(0.15, false);
+  for (Case& c : prism_grid(0.15, true)) cases.push_back(std::move(c));
+  SolveOptions options;
+  for (const auto& [name, at_least] : {std::pair<const char*, int>{"alternating", 58}, {"alternating-gn", 75}}) {
+    const auto solver = make_solver(name);
+    int converged = 0;
+    std::string failures;
+    for (const Case& c : cases) {
+      const SolveResult r = solve_scene(*solver, c.scene, options);
+      EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite()) << c.name;
+      for (std::size_t k = 1; k < r.trace.size(); ++k)
+        EXPECT_LE(r.trace[k].objective, r.trace[k - 1].objective) << c.name << " trace point " << k;
+      if (r.status == Status::Converged) {
+        ++converged;
+        EXPECT_TRUE(verify(c.scene, r.positions, r.forces, 1e-8).ok) << c.name;
+      } else {
+        EXPECT_TRUE(r.status == Status::Infeasible || r.status == Status::MaxIterations) << c.name;
+        failures += "\n  " + c.name + ": " + r.message;
+      }
+    }
+    EXPECT_GE(converged, at_least) << name << " failures:" << failures;
+    std::printf("%s: %d / %zu converged at 15 %% noise%s\n", name, converged, cases.size(), failures.c_str());
   }
-  run_cases(cases);
 }
 
 TEST(AlternatingSolver, PerturbedOctahedraConverge) {
