@@ -48,7 +48,8 @@ namespace tensegrity::cli {
 
 namespace {
 
-constexpr const char* kDefaultMaterial = "elastic-cord-1mm";
+// The 2 mm cord: the 1 mm one cannot carry any of the shipped characters (README).
+constexpr const char* kDefaultMaterial = "elastic-cord-2mm";
 
 struct DesignArgs {
   std::string input, out, sheet, material = kDefaultMaterial, solver;
@@ -427,7 +428,7 @@ void register_design_command(CLI::App& app, CommandRunner& run) {
       ->required();
   cmd->add_option("--strain", args->strain, "Desired cable strain (default 0.3); elements may carry target_strain");
   cmd->add_option("--material", args->material,
-                  "Cable material name or file (default elastic-cord-1mm); elements may carry material");
+                  "Cable material name or file (default elastic-cord-2mm); elements may carry material");
   cmd->add_option("--material-dir", args->material_dirs, "Extra folder to look for NAME.json in (repeatable)");
   cmd->add_option("--naive-fraction", args->naive_fraction,
                   "Baseline: every cable's rest length = F * its length, in (0, 1] (no stiffness scaling)");

@@ -22,19 +22,28 @@
 //   in dimensionless units (positions / L, forces / F0); r stacks f and the
 //   force-scale normalisation row; W weighs positions 1, forces sigma_weight and
 //   elements at their sign bound 0. f is linear in sigma, so when the step
-//   keeps every sign the new forces are used as they are; when a force would
-//   cross its bound the stress QP (warm-started from the clipped forces)
-//   restores the bounds; when a trial fails with forces that did not come from
-//   the QP, the QP re-optimises them before the damping grows.
+//   keeps every sign the new forces are used as they are; a force that would
+//   cross its bound is clipped and held there (qp_on_crossing: run the stress
+//   QP instead, 3-10x slower on the 80/500 towers for the same result); when a
+//   trial fails with forces that did not come from the QP, the QP
+//   re-optimises them (and frees held forces) before the damping grows.
 //   sigma_weight = 0 gives the positions-only Gauss-Newton step (QP every step).
 //   Node moves are capped by a trust radius (max_step * L); a trial is accepted
 //   only if Eq. 4's objective decreases, else lambda grows and the radius halves.
 //   J W J^T is assembled in place into a preallocated pattern and factorized by
 //   a sparse LDLT whose ordering and symbolic analysis are done once per part.
 //
-// Defaults were chosen by a sweep over the perturbed prisms and octahedra of
-// tests/alternating_solver_test.cpp (most converged, then least time, then
-// smallest geometry change); see the README.
+// Anchored step: with the same factorization, the step that reaches the
+//   linearised equilibrium with the smallest |q + dq - q0| is tried first
+//   (a Gauss-Newton step towards Eq. 5's minimal geometry change), accepted
+//   if it achieves a quarter of its predicted decrease; else the plain step.
+// Restarts: a GN run that stalls starts again from the input with other step
+//   weights (AlternatingOptions::restarts); the result is the first that
+//   converges (or the best).
+//
+// Defaults were chosen by sweeps over the perturbed prisms and octahedra of
+// tests/alternating_solver_test.cpp and the 80/500 towers (most converged,
+// then smallest geometry change, then least time); see the README.
 //
 // Both: the objective of Eq. 4, |f|^2 + w^2 (c^T sigma - t)^2, never increases
 // from one outer iteration to the next (the QP result is kept only if it is no
@@ -62,10 +71,10 @@ struct AlternatingOptions {
   double margin = 0.0;           // sign margin / F0; 0 = SolveOptions::margin_fraction
   // Gauss-Newton variant.
   double max_step = 0.25;        // trust radius: largest node move per step (units of L)
-  double sigma_weight = 0.1;     // weight of force changes in the joint step (0: positions only)
+  double sigma_weight = 10.0;    // weight of force changes in the joint step (0: positions only)
   double lambda = 1e-8;          // initial LM damping, relative to the mean diagonal of J W J^T
   bool qp_every_step = false;    // run the stress QP after every step, not only when a sign bound is crossed
-  bool qp_on_crossing = true;    // run it when a force would cross its bound (else: clip, hold it there)
+  bool qp_on_crossing = false;   // run it when a force would cross its bound (else: clip, hold it there)
   bool move_bound_forces = false;  // let forces held at a sign bound move in the joint step
   bool anchor = true;            // try the step anchored at the input geometry first (see above)
   int restarts = 5;              // after a stall, runs again from the input with sigma_weight x10,
@@ -73,7 +82,8 @@ struct AlternatingOptions {
 };
 
 // Reads the backend options ("gamma", "i_max", "epsilon_cvg", "mu", "margin";
-// with gauss_newton also "max_step", "sigma_weight", "lambda"). Throws
+// with gauss_newton also "max_step", "sigma_weight", "lambda", "qp_every_step",
+// "qp_on_crossing", "move_bound_forces", "anchor", "restarts"). Throws
 // InputError for unknown keys or malformed values.
 AlternatingOptions read_alternating_options(const SolveOptions& options, bool gauss_newton);
 

@@ -2,16 +2,14 @@
 // a directory): exit status 2, exactly one line on standard error naming the
 // file, nothing on standard output, and no output file (CONTRACT.md).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <sstream>
 #include <string>
 #include <vector>
+
+#include "process_runner.hpp"
 
 namespace {
 
@@ -19,65 +17,12 @@ namespace fs = std::filesystem;
 
 const fs::path kBadInputs = fs::path(TENSEGRITY_SOURCE_DIR) / "tests" / "bad_inputs";
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
-std::string quoted(const std::string& s) {
-  std::string out = "'";
-  for (const char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-struct ProgramRun {
-  int exit_status = -1;
-  std::string out, err;
-};
+using tensegrity::testing::ProgramRun;
 
 class CliBadInput : public ::testing::Test {
  protected:
-  void SetUp() override {
-    const std::string base = (fs::temp_directory_path() / ("tensegrity-cli-bad-" + std::to_string(::getpid()))).string();
-    work_ = base + "-work";
-    logs_ = base + "-logs";
-    fs::create_directories(work_);
-    fs::create_directories(logs_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(work_, ec);
-    fs::remove_all(logs_, ec);
-  }
-
-  // Runs the program with a time limit, so that a hang fails instead of blocking.
-  ProgramRun run(const std::vector<std::string>& args) const {
-    // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "literal" + string.
-    std::string command = "timeout 120 ";
-    command += quoted(TENSEGRITY_BINARY);
-    for (const std::string& a : args) {
-      command += ' ';
-      command += quoted(a);
-    }
-    command += " >";
-    command += quoted((logs_ / "stdout").string());
-    command += " 2>";
-    command += quoted((logs_ / "stderr").string());
-    const int raw = std::system(command.c_str());
-    ProgramRun r;
-    r.exit_status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
-    r.out = read_text(logs_ / "stdout");
-    r.err = read_text(logs_ / "stderr");
-    return r;
-  }
-
-  std::vector<std::string> work_files() const {
-    std::vector<std::string> names;
-    for (const auto& entry : fs::directory_iterator(work_)) names.push_back(entry.path().filename().string());
-    return names;
-  }
+  ProgramRun run(const std::vector<std::string>& args) const { return dir_.run(args); }
+  std::vector<std::string> work_files() const { return dir_.work_files(); }
 
   // The checks every bad input must pass, for one command line.
   void expect_rejected(const std::vector<std::string>& args, const std::string& file) {
@@ -94,7 +39,7 @@ class CliBadInput : public ::testing::Test {
     EXPECT_TRUE(work_files().empty()) << "output written: " << work_files().front();
   }
 
-  fs::path work_, logs_;
+  tensegrity::testing::ScratchDir dir_{"cli-bad"};
 };
 
 std::set<fs::path> bad_scene_files() {
@@ -108,12 +53,12 @@ TEST_F(CliBadInput, ProgramExists) { ASSERT_TRUE(fs::exists(TENSEGRITY_BINARY)) 
 
 TEST_F(CliBadInput, ForcesRejectsEveryBadScene) {
   ASSERT_GE(bad_scene_files().size(), 40u);
-  const std::string out = (work_ / "out.solution.json").string();
+  const std::string out = (dir_.work() / "out.solution.json").string();
   for (const fs::path& file : bad_scene_files()) expect_rejected({"forces", file.string(), "--out", out}, file.string());
 }
 
 TEST_F(CliBadInput, SolveRejectsEveryBadScene) {
-  const std::string out = (work_ / "out.solution.json").string();
+  const std::string out = (dir_.work() / "out.solution.json").string();
   for (const fs::path& file : bad_scene_files()) expect_rejected({"solve", file.string(), "--out", out}, file.string());
 }
 
@@ -127,8 +72,8 @@ TEST_F(CliBadInput, StandardOutputStaysEmpty) {
 }
 
 TEST_F(CliBadInput, MissingFileAndDirectory) {
-  const std::string out = (work_ / "out.solution.json").string();
-  const std::string missing = (work_ / "no-such.scene.json").string();
+  const std::string out = (dir_.work() / "out.solution.json").string();
+  const std::string missing = (dir_.work() / "no-such.scene.json").string();
   for (const char* command : {"forces", "solve"}) {
     expect_rejected({command, missing, "--out", out}, missing);
     expect_rejected({command, kBadInputs.string(), "--out", out}, kBadInputs.string());
@@ -137,7 +82,7 @@ TEST_F(CliBadInput, MissingFileAndDirectory) {
 
 TEST_F(CliBadInput, CheckRejectsABadScene) {
   const std::string scene = (kBadInputs / "duplicate_reversed.scene.json").string();
-  const std::string solution = (work_ / "no-such.solution.json").string();
+  const std::string solution = (dir_.work() / "no-such.solution.json").string();
   const ProgramRun r = run({"check", scene, solution});
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
@@ -145,13 +90,13 @@ TEST_F(CliBadInput, CheckRejectsABadScene) {
 
 TEST_F(CliBadInput, OutputIntoAMissingDirectoryIsRejected) {
   // A scene that is fine but an --out that cannot be written: also exit 2.
-  const std::string scene = (work_ / "good.scene.json").string();
+  const std::string scene = (dir_.work() / "good.scene.json").string();
   {
     std::ofstream(scene) << R"({"format": "tensegrity-scene", "version": 1,
       "nodes": [{"x": [0, 0, 0], "fixed": true}, {"x": [1, 0, 0]}],
       "elements": [{"kind": "cable", "nodes": [0, 1]}]})";
   }
-  const std::string out = (work_ / "missing-dir" / "out.solution.json").string();
+  const std::string out = (dir_.work() / "missing-dir" / "out.solution.json").string();
   const ProgramRun r = run({"forces", scene, "--out", out});
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_NE(r.err.find(out), std::string::npos) << r.err;

@@ -7,7 +7,6 @@
 // the file, nothing on stdout, no output file.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -18,29 +17,17 @@
 #include <string>
 #include <vector>
 
+#include "process_runner.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
 
 const fs::path kSource = fs::path(TENSEGRITY_SOURCE_DIR);
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
-std::string shell_quoted(const std::string& s) {
-  std::string out = "'";
-  for (const char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-struct ProgramRun {
-  int exit_status = -1;
-  std::string out, err;
-};
+using tensegrity::testing::ProgramRun;
+using tensegrity::testing::read_text;
+using tensegrity::testing::shell_quoted;
 
 // A command line with {in} for the hostile file and {out} for an output path.
 struct Role {
@@ -66,13 +53,6 @@ class CliHostileInput : public ::testing::Test {
     std::error_code ec;
     fs::remove_all(base_, ec);
   }
-  void SetUp() override {
-    work_ = base_ / ("work-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    logs_ = base_ / "logs";
-    fs::create_directories(work_);
-    fs::create_directories(logs_);
-  }
-
   static std::set<std::string> available_commands() {
     const std::string log = (base_ / "help.txt").string();
     const std::string command = shell_quoted(TENSEGRITY_BINARY) + " --help >" + shell_quoted(log) + " 2>&1";
@@ -97,7 +77,7 @@ class CliHostileInput : public ::testing::Test {
   // Every role in which a command reads a file; commands the program does not
   // have (yet) are left out.
   std::vector<Role> roles() const {
-    const std::string out = (work_ / "out.json").string();
+    const std::string out = (dir_.work() / "out.json").string();
     const std::vector<Role> all = {
         {"solve", {"solve", "{in}", "--out", out}},
         {"forces", {"forces", "{in}", "--out", out}},
@@ -105,12 +85,12 @@ class CliHostileInput : public ::testing::Test {
         {"check", {"check", good_scene_, "{in}"}},
         {"export", {"export", "{in}", "--scene", good_scene_, "--format", "vtk", "--out", out}},
         {"export", {"export", good_solution_, "--scene", "{in}", "--format", "vtk", "--out", out}},
-        {"render", {"render", "{in}", "--out", (work_ / "out.png").string()}},
-        {"render", {"render", good_scene_, "--solution", "{in}", "--out", (work_ / "out.png").string()}},
+        {"render", {"render", "{in}", "--out", (dir_.work() / "out.png").string()}},
+        {"render", {"render", good_scene_, "--solution", "{in}", "--out", (dir_.work() / "out.png").string()}},
         {"design", {"design", "{in}", "--out", out}},
         {"build", {"build", "{in}", "--out", out}},
         {"fit-material", {"fit-material", "{in}", "--out", out}},
-        {"batch", {"batch", "{in}", "--out-dir", work_.string()}},
+        {"batch", {"batch", "{in}", "--out-dir", dir_.work().string()}},
         {"stress-test",
          {"stress-test", "--scene", "{in}", "--scenes", "prism-3", "--families", "noise", "--trials", "1",
           "--solvers", "alternating-gn", "--quiet", "--out", out}},
@@ -123,24 +103,8 @@ class CliHostileInput : public ::testing::Test {
     return present;
   }
 
-  ProgramRun run(const std::vector<std::string>& args) const {
-    std::string command = "timeout 60 ";
-    command += shell_quoted(TENSEGRITY_BINARY);
-    for (const std::string& a : args) {
-      command += ' ';
-      command += shell_quoted(a);
-    }
-    command += " </dev/null >";
-    command += shell_quoted((logs_ / "stdout").string());
-    command += " 2>";
-    command += shell_quoted((logs_ / "stderr").string());
-    const int raw = std::system(command.c_str());
-    ProgramRun r;
-    r.exit_status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
-    r.out = read_text(logs_ / "stdout");
-    r.err = read_text(logs_ / "stderr");
-    return r;
-  }
+  // A shorter limit than the default: every run here should end at once.
+  ProgramRun run(const std::vector<std::string>& args) const { return dir_.run(args, 60); }
 
   // Runs every role on `input`; `named` is what stderr must mention.
   void expect_every_command_rejects(const std::string& input, const std::string& named) {
@@ -159,10 +123,9 @@ class CliHostileInput : public ::testing::Test {
       EXPECT_NE(r.err.find(named), std::string::npos) << r.err.substr(0, 500);
       EXPECT_LT(r.err.size(), 2000u + input.size()) << "the message should stay short";
       EXPECT_TRUE(r.out.empty()) << r.out.substr(0, 500);
-      std::vector<std::string> written;
-      for (const auto& entry : fs::directory_iterator(work_)) written.push_back(entry.path().filename().string());
+      const std::vector<std::string> written = dir_.work_files();
       EXPECT_TRUE(written.empty()) << "output written: " << written.front();
-      for (const auto& entry : fs::directory_iterator(work_)) fs::remove_all(entry.path());
+      for (const auto& entry : fs::directory_iterator(dir_.work())) fs::remove_all(entry.path());
     }
   }
 
@@ -171,7 +134,7 @@ class CliHostileInput : public ::testing::Test {
   static inline fs::path base_;
   static inline std::string good_scene_, good_solution_;
   static inline std::set<std::string> commands_;
-  fs::path work_, logs_;
+  tensegrity::testing::ScratchDir dir_{"hostile"};
 };
 
 TEST_F(CliHostileInput, CommandsAreFound) {

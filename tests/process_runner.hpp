@@ -60,7 +60,7 @@ inline ProgramRun run_program(const std::vector<std::string>& args, const std::f
     command += ' ';
     command += shell_quoted(a);
   }
-  command += " >";
+  command += " </dev/null >";  // no command reads stdin; a stray read must not block
   command += shell_quoted((logs_dir / "stdout").string());
   command += " 2>";
   command += shell_quoted((logs_dir / "stderr").string());

@@ -132,7 +132,9 @@ void expect_kkt(const Structure& s, const StiffnessProblem& p, const StiffnessRe
   }
   const StiffnessKkt kkt = stiffness_kkt(eq, p, r.sigma, 1e-12 * scale);
   EXPECT_LE(kkt.stationarity, 1e-10 * scale);
-  if (!degenerate) EXPECT_LE(kkt.wrong_sign, 1e-10 * scale);
+  if (!degenerate) {
+    EXPECT_LE(kkt.wrong_sign, 1e-10 * scale);
+  }
   EXPECT_LE(kkt.equilibrium_norm, 1e-10 * scale);
 }
 
