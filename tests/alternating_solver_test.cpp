@@ -128,8 +128,12 @@ TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
 TEST(AlternatingSolver, StronglyPerturbedPrismsMostlyConvergeAndFailCleanly) {
   std::vector<Case> cases = prism_grid(0.15, false);
   for (Case& c : prism_grid(0.15, true)) cases.push_back(std::move(c));
-  SolveOptions options;
-  for (const auto& [name, at_least] : {std::pair<const char*, int>{"alternating", 58}, {"alternating-gn", 75}}) {
+  for (const auto& [name, at_least] : {std::pair<const char*, int>{"alternating", 57}, {"alternating-gn", 79}}) {
+    SolveOptions options;
+    // The faithful scheme's failures here spend the whole budget; 500 outer
+    // iterations (not the default 2000) keep the suite fast under the
+    // sanitizers (measured: 59/80 converge with 500, 61/80 with 2000).
+    if (std::string(name) == "alternating") options.max_iterations = 500;
     const auto solver = make_solver(name);
     int converged = 0;
     std::string failures;
