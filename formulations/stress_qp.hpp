@@ -39,6 +39,14 @@
 // rounding accuracy: a geometry that is a tensegrity reaches a relative
 // residual near machine precision.
 //
+// Near-mechanisms with many forces at a bound make the active set change a
+// few forces per step; after interior_point_after steps without settling (or
+// when no progress is possible) one Mehrotra predictor-corrector
+// interior-point phase on the same pattern (diagonal barrier terms added to
+// K) finds the optimum's neighbourhood, bounds whose slack is below their
+// multiplier are snapped (crossover), mu is re-centred on that point, and
+// projected Newton resumes. The polish is judged by the residual objective.
+//
 // Limits: where [A; w c^T] has a null space (more forces than conditions)
 // only mu picks among equally good forces, and double precision fixes that
 // choice to about eps / mu (~1e-6 relative for mu = 1e-10); the residual
@@ -62,7 +70,8 @@ struct StressQpOptions {
   // max(F0, |sigma|_inf, |f_g|_inf). Never taken below 32 eps sqrt(m + 1),
   // the rounding level of the gradient itself.
   double optimality_tolerance = 1e-13;
-  int max_polish_steps = 30;         // iterated-Tikhonov steps on the final free set (stops early when slow)
+  int max_polish_steps = 30;         // iterated-Tikhonov steps on the final free set (stops when
+                                     // the residual falls by less than 1 % in a step)
   // Centre the mu term on the starting point instead of the origin: among
   // equally good forces, those closest to the warm start. A warm start that
   // is already an equilibrium then stays one, where the pull towards the
