@@ -56,6 +56,7 @@
 #include "model/character.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
+#include "solvers/trace_csv.hpp"
 #include "tests/scene_fixtures.hpp"
 
 // ---------------------------------------------------------------------------
@@ -220,16 +221,6 @@ double first_time_below(const std::vector<TracePoint>& trace, double threshold, 
   return -1.0;
 }
 
-void write_trace(const std::string& path, const std::vector<TracePoint>& trace) {
-  std::ostringstream out;
-  out.precision(17);
-  out << "seconds,iteration,evaluations,residual,relative_residual,geometry_change,objective\n";
-  for (const auto& p : trace)
-    out << p.seconds << ',' << p.iteration << ',' << p.evaluations << ',' << p.residual << ','
-        << p.relative_residual << ',' << p.geometry_change << ',' << p.objective << '\n';
-  std::ofstream(path) << out.str();
-}
-
 double max_rss_mb() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -269,7 +260,7 @@ void run(benchmark::State& state, const std::string& backend, const Structure& s
   state.counters["max_rss_MB"] = max_rss_mb();
   state.SetLabel(std::string(to_string(r.status)) + (success ? "" : " (not verified)"));
   if (!config().trace_dir.empty())
-    write_trace(config().trace_dir + "/" + scene.name + "__" + backend + ".csv", r.trace);
+    write_trace_csv(config().trace_dir + "/" + scene.name + "__" + backend + ".csv", r.trace);
   // One progress line per benchmark (Google Benchmark calls this function
   // again for each trial iteration count and repetition).
   static std::set<std::string> reported;

@@ -20,16 +20,6 @@ std::string summary_line(const Structure& scene, std::string_view solver, const 
   return line;
 }
 
-void write_trace_csv(const std::string& path, const std::vector<TracePoint>& trace) {
-  std::ostringstream out;
-  out.precision(17);
-  out << "seconds,iteration,evaluations,residual,relative_residual,geometry_change,objective\n";
-  for (const auto& p : trace)
-    out << p.seconds << ',' << p.iteration << ',' << p.evaluations << ',' << p.residual << ','
-        << p.relative_residual << ',' << p.geometry_change << ',' << p.objective << '\n';
-  write_text_file_atomically(path, out.str());
-}
-
 std::map<std::string, std::string> parse_key_values(const std::vector<std::string>& items) {
   std::map<std::string, std::string> kv;
   for (const auto& item : items) {

@@ -3,14 +3,12 @@
 #include <string>
 
 #include "solvers/solver.hpp"
+#include "solvers/trace_csv.hpp"  // write_trace_csv, which the commands use with these
 
 namespace tensegrity::cli {
 
 // One-line human summary of a solve, for standard error.
 std::string summary_line(const Structure& scene, std::string_view solver, const SolveResult& r);
-// Per-iteration record as CSV (seconds, iteration, evaluations, residual,
-// relative_residual, geometry_change, objective), written atomically.
-void write_trace_csv(const std::string& path, const std::vector<TracePoint>& trace);
 // Parses "key=value" items of --option.
 std::map<std::string, std::string> parse_key_values(const std::vector<std::string>& items);
 // Exit status of a finished solve (CONTRACT.md): 0 converged, 1 otherwise.
