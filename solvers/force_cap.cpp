@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "formulations/equilibrium.hpp"
+#include "solvers/ipopt_run.hpp"
 
 namespace tensegrity {
 namespace {
@@ -164,26 +165,19 @@ ForceCapResult smallest_force_cap(const Structure& s, const Eigen::Matrix3Xd& po
     r.message = "no cable has a force cap";
     return r;
   }
-  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
-  app->Options()->SetStringValue("sb", "yes");
-  app->Options()->SetIntegerValue("print_level", 0);
-  app->Options()->SetNumericValue("tol", 1e-10);
-  app->Options()->SetIntegerValue("max_iter", 3000);
-  app->Options()->SetStringValue("hessian_constant", "yes");
-  app->Options()->SetStringValue("jac_c_constant", "yes");
-  app->Options()->SetStringValue("jac_d_constant", "yes");
-  app->Options()->SetStringValue("mu_strategy", "adaptive");
-  Ipopt::ApplicationReturnStatus status = Ipopt::Internal_Error;
-  try {
-    if (app->Initialize() != Ipopt::Solve_Succeeded) {
-      r.message = "Ipopt failed to initialise";
-      return r;
-    }
-    status = app->OptimizeTNLP(nlp);
-  } catch (const std::exception& ex) {
-    r.message = std::string("Ipopt: ") + ex.what();
+  const IpoptRun run = run_ipopt(GetRawPtr(nlp), [](Ipopt::OptionsList& o) {
+    o.SetNumericValue("tol", 1e-10);
+    o.SetIntegerValue("max_iter", 3000);
+    o.SetStringValue("hessian_constant", "yes");
+    o.SetStringValue("jac_c_constant", "yes");
+    o.SetStringValue("jac_d_constant", "yes");
+    o.SetStringValue("mu_strategy", "adaptive");
+  });
+  if (!run.error.empty()) {
+    r.message = run.error;
     return r;
   }
+  const Ipopt::ApplicationReturnStatus status = run.status;
   if (nlp->y.size() != m + 1) {
     r.message = "Ipopt returned no point";
     return r;

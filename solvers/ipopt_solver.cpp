@@ -25,6 +25,7 @@
 #include "formulations/stress_qp.hpp"
 #include "model/errors.hpp"
 #include "model/verify.hpp"
+#include "solvers/ipopt_run.hpp"
 #include "solvers/trace_recorder.hpp"
 
 namespace tensegrity {
@@ -384,12 +385,10 @@ SolveResult IpoptSolver::solve_part(const Structure& part, const SolveOptions& o
       max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
   const double constraint_tolerance = 0.1 * options.tolerance * load_over_force / std::sqrt(3.0);
 
-  // MUMPS (sequential, as Debian builds it for Ipopt 3.11) keeps global state
-  // and is not thread-safe; Ipopt 3.11 does not serialise it. One solve at a
-  // time per process: the lock is taken before the application exists and
-  // released after it is destroyed (its destructor ends the MUMPS instance).
-  static std::mutex mumps_mutex;
-  std::lock_guard<std::mutex> mumps_lock(mumps_mutex);
+  // One Ipopt application at a time per process (solvers/ipopt_run.hpp): the
+  // lock is taken before the application exists and released after it is
+  // destroyed (its destructor ends the MUMPS instance).
+  std::lock_guard<std::mutex> mumps_lock(mumps_mutex());
   Ipopt::SmartPtr<Eq5Tnlp> problem = new Eq5Tnlp(nlp, sigma0, recorder, max_free_weight);
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = make_application(options.verbose);
   Ipopt::OptionsList& o = *app->Options();

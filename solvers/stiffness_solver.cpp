@@ -1,7 +1,6 @@
 #include "solvers/stiffness_solver.hpp"
 
 #include <coin/IpIpoptApplication.hpp>
-#include <coin/IpSolveStatistics.hpp>
 #include <coin/IpTNLP.hpp>
 
 #include <Eigen/Dense>
@@ -9,11 +8,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <exception>
 #include <limits>
 #include <vector>
 
 #include "formulations/equilibrium.hpp"
+#include "solvers/ipopt_run.hpp"
 #include "model/verify.hpp"
 
 namespace tensegrity {
@@ -198,38 +197,29 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
   }
   Ipopt::SmartPtr<StiffnessTnlp> nlp = new StiffnessTnlp(eq, problem, scale, y0, rows);
 
-  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
-  app->Options()->SetStringValue("sb", "yes");
-  app->Options()->SetIntegerValue("print_level", options.verbose ? 5 : 0);
-  app->Options()->SetNumericValue("tol", 1e-12);
-  app->Options()->SetNumericValue("constr_viol_tol", 1e-12);
-  app->Options()->SetIntegerValue("max_iter", options.max_iterations);
-  // Degenerate problems (many ties at a bound) may end "acceptable": keep
-  // that level strict on equilibrium.
-  app->Options()->SetNumericValue("acceptable_tol", 1e-9);
-  // Relaxed bounds would be projected back at the end, breaking equilibrium.
-  app->Options()->SetNumericValue("bound_relax_factor", 0.0);
-  app->Options()->SetNumericValue("acceptable_constr_viol_tol", 1e-11);
-  app->Options()->SetStringValue("hessian_constant", "yes");
-  app->Options()->SetStringValue("jac_c_constant", "yes");
-  app->Options()->SetStringValue("jac_d_constant", "yes");
-  app->Options()->SetStringValue("mu_strategy", "adaptive");
-  app->Options()->SetStringValue("nlp_scaling_method", "none");
-  Ipopt::ApplicationReturnStatus status = Ipopt::Internal_Error;
-  try {
-    if (app->Initialize() != Ipopt::Solve_Succeeded) {
-      r.message = "Ipopt failed to initialise";
-      return r;
-    }
-    status = app->OptimizeTNLP(nlp);
-    if (Ipopt::IsValid(app->Statistics())) r.iterations = app->Statistics()->IterationCount();
-  } catch (const std::exception& ex) {
-    r.message = std::string("Ipopt: ") + ex.what();
-    return r;
-  } catch (...) {
-    r.message = "Ipopt threw an unknown exception";
+  const IpoptRun run = run_ipopt(GetRawPtr(nlp), [&](Ipopt::OptionsList& o) {
+    o.SetIntegerValue("print_level", options.verbose ? 5 : 0);
+    o.SetNumericValue("tol", 1e-12);
+    o.SetNumericValue("constr_viol_tol", 1e-12);
+    o.SetIntegerValue("max_iter", options.max_iterations);
+    // Degenerate problems (many ties at a bound) may end "acceptable": keep
+    // that level strict on equilibrium.
+    o.SetNumericValue("acceptable_tol", 1e-9);
+    // Relaxed bounds would be projected back at the end, breaking equilibrium.
+    o.SetNumericValue("bound_relax_factor", 0.0);
+    o.SetNumericValue("acceptable_constr_viol_tol", 1e-11);
+    o.SetStringValue("hessian_constant", "yes");
+    o.SetStringValue("jac_c_constant", "yes");
+    o.SetStringValue("jac_d_constant", "yes");
+    o.SetStringValue("mu_strategy", "adaptive");
+    o.SetStringValue("nlp_scaling_method", "none");
+  });
+  r.iterations = run.iterations;
+  if (!run.error.empty()) {
+    r.message = run.error;
     return r;
   }
+  const Ipopt::ApplicationReturnStatus status = run.status;
   if (nlp->y.size() != m) {
     r.message = "Ipopt returned no point (status " + std::to_string(static_cast<int>(status)) + ")";
     r.status = status == Ipopt::Infeasible_Problem_Detected ? Status::Infeasible : Status::NumericalError;
