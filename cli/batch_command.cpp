@@ -119,10 +119,7 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       options.max_iterations = args->max_iterations;
       options.time_limit_s = args->time_limit;
       options.skip_if_in_equilibrium = !args->no_skip;
-      std::string why;
-      if (!options.IsValid(&why)) throw InputError("command line", "options", why);
-      const std::string name = args->solver.empty() ? default_solver_name() : args->solver;
-      make_solver(name)->check_options(options);
+      const std::string name(checked_solver(args->solver, options)->name());
       std::vector<Structure> scenes;
       std::vector<std::string> stems;
       for (const auto& path : args->scenes) {

@@ -227,11 +227,8 @@ int run_design(const DesignArgs& a) {
   SolveOptions options;
   options.tolerance = a.tol;
   options.time_limit_s = a.time_limit;
-  std::string why;
-  if (!options.IsValid(&why)) throw InputError("command line", "options", why);
-  const std::string solver_name = a.solver.empty() ? default_solver_name() : a.solver;
-  const auto solver = make_solver(solver_name);  // unknown names fail before any work
-  solver->check_options(options);
+  const auto solver = checked_solver(a.solver, options);  // unknown names fail before any work
+  const std::string solver_name(solver->name());
 
   const Structure scene = read_input(a.input);
   const int m = scene.num_elements();

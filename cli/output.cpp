@@ -20,6 +20,14 @@ std::string summary_line(const Structure& scene, std::string_view solver, const 
   return line;
 }
 
+std::unique_ptr<Solver> checked_solver(const std::string& name, const SolveOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InputError("command line", "options", why);
+  auto solver = make_solver(name.empty() ? default_solver_name() : name);
+  solver->check_options(options);
+  return solver;
+}
+
 std::map<std::string, std::string> parse_key_values(const std::vector<std::string>& items) {
   std::map<std::string, std::string> kv;
   for (const auto& item : items) {

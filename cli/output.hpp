@@ -1,6 +1,9 @@
 #pragma once
 // Shared output helpers of the commands.
+#include <map>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "solvers/solver.hpp"
 #include "solvers/trace_csv.hpp"  // write_trace_csv, which the commands use with these
@@ -11,6 +14,9 @@ namespace tensegrity::cli {
 std::string summary_line(const Structure& scene, std::string_view solver, const SolveResult& r);
 // Parses "key=value" items of --option.
 std::map<std::string, std::string> parse_key_values(const std::vector<std::string>& items);
+// The solver a command was asked for (empty: the default), with the options
+// checked by it and by SolveOptions::IsValid; InputError (exit 2) otherwise.
+std::unique_ptr<Solver> checked_solver(const std::string& name, const SolveOptions& options);
 // Exit status of a finished solve (CONTRACT.md): 0 converged, 1 otherwise.
 inline int exit_status(Status s) { return s == Status::Converged ? 0 : 1; }
 

@@ -50,11 +50,8 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
       options.verbose = args->verbose;
       options.skip_if_in_equilibrium = !args->no_skip;
       options.backend_options = parse_key_values(args->options);
-      std::string why;
-      if (!options.IsValid(&why)) throw InputError("command line", "options", why);
-      const std::string name = args->solver.empty() ? default_solver_name() : args->solver;
-      const auto solver = make_solver(name);
-      solver->check_options(options);
+      const auto solver = checked_solver(args->solver, options);
+      const std::string name(solver->name());
       const Structure scene = read_scene_file(args->scene);
       const SolveResult r = solve_scene(*solver, scene, options);
       write_solution_file(to_solution(r, scene, name), args->out);
