@@ -50,7 +50,7 @@ struct StressQp::Impl {
   // Work space, sized once per topology.
   Eigen::VectorXd center;
   // Interior-point work space.
-  Eigen::VectorXd ip_h, ip_rd, ip_zl, ip_zu, ip_d, ip_rhs, ip_dx, ip_dx_aff, ip_dzl, ip_dzu, ip_tmp;
+  Eigen::VectorXd ip_h, ip_rd, ip_zl, ip_zu, ip_d, ip_rhs, ip_dx, ip_dx_aff, ip_dzl, ip_dzu;
   Eigen::VectorXd s, g, d, trial, step, rhs, lin_res, op_out, masked, best_s;
   Eigen::VectorXd aug_rhs, aug_sol;
   Eigen::VectorXd r, a_step;  // equation-sized
@@ -491,10 +491,9 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
   auto gradient_scale = [&](const Eigen::VectorXd& x) {
     return std::max({q.f0, x.lpNorm<Eigen::Infinity>(), fg_max});
   };
-  // The regulariser's centre: the origin (the paper's smallest forces) or,
-  // with options_.proximal, the (projected) starting point.
-  if (options_.proximal) q.center = q.s;
-  else q.center.setZero(m);
+  // The regulariser's centre: the origin (the paper's smallest forces) until
+  // an interior-point phase moves it (below).
+  q.center.setZero(m);
   // r = A s + f_g and g = A^T r + w^2 c (c^T s - t) + mu_term (s - centre).
   auto evaluate = [&](const Eigen::VectorXd& x, double mu_term) {
     q.residual(A, fg, x, q.r);

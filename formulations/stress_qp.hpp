@@ -72,11 +72,6 @@ struct StressQpOptions {
   double optimality_tolerance = 1e-13;
   int max_polish_steps = 30;         // iterated-Tikhonov steps on the final free set (stops when
                                      // the residual falls by less than 1 % in a step)
-  // Centre the mu term on the starting point instead of the origin: among
-  // equally good forces, those closest to the warm start. A warm start that
-  // is already an equilibrium then stays one, where the pull towards the
-  // origin would trade residual for norm on near-mechanisms.
-  bool proximal = false;
   // After this many projected-Newton iterations without settling, one
   // Mehrotra interior-point phase (see stress_qp.cpp); negative: never.
   int interior_point_after = 20;

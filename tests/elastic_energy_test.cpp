@@ -11,56 +11,16 @@
 
 #include "formulations/rest_lengths.hpp"
 #include "model/reference_scenes.hpp"
+#include "simulation_fixtures.hpp"
 
 namespace tensegrity {
 namespace {
 
-CableMaterial shipped(const std::string& name) {
-  return read_material_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/materials/" + name + ".json");
-}
-
-// The analytic regular prism (force densities struts -1, verticals 1, rings
-// 1 / (2 sin(pi/n))), scaled so the mean cable force is `mean_force`, made
-// into a design with the given material.
-Design prism_design(int n, const std::string& material, double mean_force, bool fix_bottom = false) {
-  PrismParameters p;
-  p.n = n;
-  p.radius = 0.1;
-  p.height = 0.12;
-  p.fix_bottom = fix_bottom;
-  p.strut_mass = 0.01;
-  p.cable_mass = 0.001;
-  Design d;
-  d.structure = make_regular_prism(p);
-  const Structure& s = d.structure;
-  const int m = s.num_elements();
-  Eigen::VectorXd sigma(m);
-  double cable_sum = 0.0;
-  int cables = 0;
-  for (int e = 0; e < m; ++e) {
-    const double l = (s.positions.col(s.elements[e].b) - s.positions.col(s.elements[e].a)).norm();
-    double density = -1.0;
-    if (e >= n && e < 2 * n) density = 1.0;
-    if (e >= 2 * n) density = 1.0 / (2.0 * std::sin(M_PI / n));
-    sigma[e] = density * l;
-    if (e >= n) cable_sum += sigma[e], ++cables;
-  }
-  sigma *= mean_force * cables / cable_sum;
-  d.materials[material] = shipped(material);
-  d.cable_material.assign(m, "");
-  for (int e = 0; e < m; ++e)
-    if (s.elements[e].kind == ElementKind::Cable) d.cable_material[e] = material;
-  const RestLengthDesign rest = compute_rest_lengths(s, s.positions, sigma, d.material_pointers());
-  EXPECT_TRUE(rest.ok) << rest.message;
-  d.solution.positions = s.positions;
-  d.solution.forces = sigma;
-  d.solution.rest_lengths = rest.rest_lengths;
-  d.strains = rest.strains;
-  return d;
-}
+using testing::prism_design;
+using testing::shipped_material;
 
 TEST(CableCurve, FollowsTheMaterialAndIsSlackBelowRest) {
-  const CableMaterial m = shipped("elastic-cord-1mm");
+  const CableMaterial m = shipped_material("elastic-cord-1mm");
   const CableCurve c(m);
   ASSERT_LT(m.coefficients[0], 0.0);  // the shipped fit crosses zero just above eps = 0
   EXPECT_GT(c.slack_strain(), 0.0);

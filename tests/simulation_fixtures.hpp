@@ -32,12 +32,14 @@ inline Eigen::VectorXd prism_forces(const Structure& s, int n, double mean_cable
   return sigma * (mean_cable_force * (m - n) / cable_sum);
 }
 
-// The regular prism (radius 0.1 m, height 0.12 m, masses), no gravity, as a design.
-inline Design prism_design(int n, const std::string& material, double mean_force) {
+// The regular prism (radius 0.1 m, height 0.12 m, masses), no gravity, as a
+// design whose mean cable force is `mean_force`.
+inline Design prism_design(int n, const std::string& material, double mean_force, bool fix_bottom = false) {
   PrismParameters p;
   p.n = n;
   p.radius = 0.1;
   p.height = 0.12;
+  p.fix_bottom = fix_bottom;
   p.strut_mass = 0.01;
   p.cable_mass = 0.001;
   Design d;
