@@ -487,9 +487,13 @@ SolveResult PartSolve::finish(Status status, std::string message) {
 }
 
 SolveResult PartSolve::run() {
-  // Line 2 of the first iteration: a cold stress solve.
+  // Line 2 of the first iteration: the stress solve at the input geometry.
   {
-    const StressQpResult r = qp_.solve();
+    // Warm from the driver's forces at this geometry when it has them (this
+    // backend's own mu and margin may differ, so the QP still runs).
+    const StressQpResult r = options_.initial_forces.size() == eq_.num_elements()
+                                 ? qp_.solve(options_.initial_forces)
+                                 : qp_.solve();
     ++evaluations_;
     sigma_ = r.sigma;
     if (sigma_.size() != eq_.num_elements()) {

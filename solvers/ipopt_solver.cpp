@@ -351,7 +351,9 @@ SolveResult IpoptSolver::solve_part(const Structure& part, const SolveOptions& o
 
   MinimalGeometryChangeNlp nlp(part, scale);
   Eigen::VectorXd sigma0;
-  {
+  if (options.initial_forces.size() == part.num_elements() && options.initial_forces.allFinite()) {
+    sigma0 = options.initial_forces;  // the driver's stress QP at this geometry, same scale
+  } else {
     StressQp qp(nlp.equilibrium(), scale);
     sigma0 = qp.solve().sigma;
     if (sigma0.size() != part.num_elements() || !sigma0.allFinite()) sigma0 = reference_forces(part, scale);

@@ -162,6 +162,11 @@ SolveResult solve_scene(const Solver& solver, const Structure& scene, const Solv
         shortcut.trace.push_back(p);
         return shortcut;
       }
+      if (shortcut.forces.size() == part.num_elements() && shortcut.forces.allFinite()) {
+        SolveOptions warm = part_options;
+        warm.initial_forces = std::move(shortcut.forces);
+        return solver.solve_part(part, warm);
+      }
     }
     return solver.solve_part(part, part_options);
   });

@@ -25,6 +25,10 @@ struct SolveOptions {
   bool skip_if_in_equilibrium = true;  // stress QP first; return unchanged geometry if it verifies
   // Backend-specific `--option key=value` pairs; each backend rejects unknown keys.
   std::map<std::string, std::string> backend_options;
+  // Forces (N) of the stress QP at the part's input geometry, when the driver
+  // has already solved it (its equilibrium shortcut): backends start from them
+  // instead of solving the same QP again. Empty: the backend solves it.
+  Eigen::VectorXd initial_forces;
 
   // False with a reason when a value is out of range.
   bool IsValid(std::string* why = nullptr) const;
