@@ -57,6 +57,7 @@
 #include <memory>
 #include <string_view>
 
+#include "solvers/interior_gauss_newton.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {
@@ -79,11 +80,16 @@ struct AlternatingOptions {
   bool anchor = true;            // try the step anchored at the input geometry first (see above)
   int restarts = 5;              // after a stall, runs again from the input with sigma_weight x10,
                                  // lambda x1e5, sigma_weight x3, max_step x0.2, sigma_weight x0.1
+  // Gauss-Newton variant: the interior attempt that runs first
+  // (interior_gauss_newton.hpp; interior.max_iterations = 0 skips it).
+  InteriorGaussNewtonOptions interior;
 };
 
 // Reads the backend options ("gamma", "i_max", "epsilon_cvg", "mu", "margin";
 // with gauss_newton also "max_step", "sigma_weight", "lambda", "qp_every_step",
-// "qp_on_crossing", "move_bound_forces", "anchor", "restarts"). Throws
+// "qp_on_crossing", "move_bound_forces", "anchor", "restarts", and for the
+// interior attempt "interior_iterations", "interior_force_weight",
+// "interior_boundary_fraction", "interior_anchor_until"). Throws
 // InputError for unknown keys or malformed values.
 AlternatingOptions read_alternating_options(const SolveOptions& options, bool gauss_newton);
 

@@ -1,0 +1,127 @@
+#include "solvers/block_cholesky.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tensegrity {
+
+void BlockCholesky::analyze(const std::vector<std::vector<int>>& lower) {
+  const int nb = static_cast<int>(lower.size());
+  // Symbolic factorization: the rows of L's column k are N's rows below k
+  // plus those of every child in the elimination tree (parent = first row).
+  std::vector<std::vector<int>> rows(nb), children(nb);
+  std::vector<int> mark(nb, -1);
+  for (int k = 0; k < nb; ++k) {
+    auto& list = rows[k];
+    auto add = [&](int r) {
+      if (r > k && mark[r] != k) {
+        mark[r] = k;
+        list.push_back(r);
+      }
+    };
+    for (int r : lower[k]) add(r);
+    for (int c : children[k])
+      for (int r : rows[c]) add(r);
+    std::sort(list.begin(), list.end());
+    if (!list.empty()) children[list.front()].push_back(k);
+  }
+  column_begin_.assign(nb + 1, 0);
+  row_.clear();
+  for (int k = 0; k < nb; ++k) {
+    column_begin_[k] = static_cast<int>(row_.size());
+    row_.push_back(k);
+    row_.insert(row_.end(), rows[k].begin(), rows[k].end());
+  }
+  column_begin_[nb] = static_cast<int>(row_.size());
+  values_.assign(row_.size(), Eigen::Matrix3d::Zero());
+  inverse_diagonal_.assign(nb, Eigen::Matrix3d::Identity());
+  position_.assign(nb, 0);
+  cursor_.assign(nb, 0);
+  head_.assign(nb, -1);
+  next_.assign(nb, -1);
+}
+
+int BlockCholesky::slot(int r, int c) const {
+  const int begin = column_begin_[c], end = column_begin_[c + 1];
+  if (r == c) return begin;
+  const auto it = std::lower_bound(row_.begin() + begin + 1, row_.begin() + end, r);
+  return it != row_.begin() + end && *it == r ? static_cast<int>(it - row_.begin()) : -1;
+}
+
+void BlockCholesky::set_zero() {
+  for (auto& v : values_) v.setZero();
+}
+
+bool BlockCholesky::factorize() {
+  const int nb = num_blocks();
+  std::fill(head_.begin(), head_.end(), -1);
+  for (int k = 0; k < nb; ++k) {
+    const int begin = column_begin_[k], end = column_begin_[k + 1];
+    for (int p = begin; p < end; ++p) position_[row_[p]] = p;
+    // Left-looking: every earlier column j with a block in row k updates
+    // column k by its rows >= k (all in k's pattern, by the symbolic step).
+    for (int j = head_[k]; j != -1;) {
+      const int next_j = next_[j];
+      const int pj = cursor_[j], end_j = column_begin_[j + 1];
+      const Eigen::Matrix3d lkj_t = values_[pj].transpose();
+      for (int p = pj; p < end_j; ++p) values_[position_[row_[p]]].noalias() -= values_[p] * lkj_t;
+      if (pj + 1 < end_j) {
+        cursor_[j] = pj + 1;
+        const int r = row_[pj + 1];
+        next_[j] = head_[r];
+        head_[r] = j;
+      }
+      j = next_j;
+    }
+    // 3x3 Cholesky of the pivot block (lower triangle of the symmetric block).
+    const Eigen::Matrix3d& w = values_[begin];
+    Eigen::Matrix3d l = Eigen::Matrix3d::Zero();
+    const double d0 = w(0, 0);
+    if (!(d0 > 0.0)) return false;
+    l(0, 0) = std::sqrt(d0);
+    l(1, 0) = w(1, 0) / l(0, 0);
+    l(2, 0) = w(2, 0) / l(0, 0);
+    const double d1 = w(1, 1) - l(1, 0) * l(1, 0);
+    if (!(d1 > 0.0)) return false;
+    l(1, 1) = std::sqrt(d1);
+    l(2, 1) = (w(2, 1) - l(2, 0) * l(1, 0)) / l(1, 1);
+    const double d2 = w(2, 2) - l(2, 0) * l(2, 0) - l(2, 1) * l(2, 1);
+    if (!(d2 > 0.0)) return false;
+    l(2, 2) = std::sqrt(d2);
+    Eigen::Matrix3d inv = Eigen::Matrix3d::Zero();
+    inv(0, 0) = 1.0 / l(0, 0);
+    inv(1, 1) = 1.0 / l(1, 1);
+    inv(2, 2) = 1.0 / l(2, 2);
+    inv(1, 0) = -l(1, 0) * inv(0, 0) * inv(1, 1);
+    inv(2, 1) = -l(2, 1) * inv(1, 1) * inv(2, 2);
+    inv(2, 0) = -(l(2, 0) * inv(0, 0) + l(2, 1) * inv(1, 0)) * inv(2, 2);
+    values_[begin] = l;
+    inverse_diagonal_[k] = inv;
+    const Eigen::Matrix3d inv_t = inv.transpose();
+    for (int p = begin + 1; p < end; ++p) values_[p] = values_[p] * inv_t;
+    if (begin + 1 < end) {
+      cursor_[k] = begin + 1;
+      const int r = row_[begin + 1];
+      next_[k] = head_[r];
+      head_[r] = k;
+    }
+  }
+  return true;
+}
+
+void BlockCholesky::solve(Eigen::VectorXd& x) const {
+  const int nb = num_blocks();
+  for (int k = 0; k < nb; ++k) {
+    const Eigen::Vector3d xk = inverse_diagonal_[k] * x.segment<3>(3 * k);
+    x.segment<3>(3 * k) = xk;
+    for (int p = column_begin_[k] + 1; p < column_begin_[k + 1]; ++p) x.segment<3>(3 * row_[p]) -= values_[p] * xk;
+  }
+  for (int k = nb - 1; k >= 0; --k) {
+    Eigen::Vector3d xk = x.segment<3>(3 * k);
+    for (int p = column_begin_[k] + 1; p < column_begin_[k + 1]; ++p)
+      xk -= values_[p].transpose() * x.segment<3>(3 * row_[p]);
+    x.segment<3>(3 * k) = inverse_diagonal_[k].transpose() * xk;
+  }
+}
+
+}  // namespace tensegrity

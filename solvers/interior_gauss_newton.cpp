@@ -1,0 +1,257 @@
+#include "solvers/interior_gauss_newton.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "formulations/equilibrium.hpp"
+#include "formulations/force_scale.hpp"
+#include "formulations/stress_qp.hpp"
+#include "solvers/normal_matrix.hpp"
+#include "solvers/part_result.hpp"
+#include "solvers/trace_recorder.hpp"
+
+namespace tensegrity {
+
+bool InteriorGaussNewtonOptions::IsValid() const {
+  return max_iterations >= 0 && force_weight > 0.0 && std::isfinite(force_weight) && boundary_fraction > 0.0 &&
+         boundary_fraction < 1.0 && anchor_until >= 0.0 && anchor_until <= 1.0 && max_step > 0.0 &&
+         std::isfinite(max_step) && lambda >= 0.0 && std::isfinite(lambda) && margin_fraction >= 0.0 &&
+         margin_fraction < 1.0;
+}
+
+namespace {
+
+class InteriorSolve {
+ public:
+  InteriorSolve(const Structure& part, const SolveOptions& options, const InteriorGaussNewtonOptions& o)
+      : part_(part),
+        options_(options),
+        o_(o),
+        recorder_(options.time_limit_s),
+        eq_(part),
+        scale_(make_force_scale(part, o.margin_fraction > 0.0 ? o.margin_fraction : options.margin_fraction)),
+        L_(part.mean_element_length()),
+        F0_(scale_.reference_force),
+        wn_(StressQpOptions{}.normalisation_weight) {
+    const int nq = eq_.num_equations(), m = eq_.num_elements();
+    q0_ = eq_.free_nodes().gather(part.positions);
+    q_ = q0_;
+    for (Eigen::VectorXd* v : {&q_trial_, &f_, &f_trial_, &dq_, &offset_, &jd_}) v->resize(nq);
+    for (Eigen::VectorXd* v : {&sigma_trial_, &dsigma_, &weight_}) v->resize(m);
+    const Eigen::VectorXd& fg = eq_.gravity_load();
+    for (int k = 0; k < eq_.free_nodes().num_free(); ++k)
+      gravity_scale_ = std::max(gravity_scale_, fg.segment<3>(3 * k).norm());
+  }
+
+  SolveResult run();
+
+ private:
+  // Eq. 4's objective |f|^2 + w^2 (c^T sigma - t)^2 (N^2) at the current geometry; writes f.
+  double objective(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const {
+    eq_.residual(sigma, f);
+    double phi = f.squaredNorm();
+    if (scale_.has_normalisation()) {
+      const double r = scale_.normalisation_row.dot(sigma) - scale_.normalisation_target;
+      phi += wn_ * wn_ * r * r;
+    }
+    return phi;
+  }
+  double relative_residual(const Eigen::VectorXd& f, const Eigen::VectorXd& sigma) const {
+    double worst = 0.0;
+    for (int k = 0; k < eq_.free_nodes().num_free(); ++k) worst = std::max(worst, f.segment<3>(3 * k).norm());
+    const double load = gravity_scale_ > 0.0 ? gravity_scale_ : sigma.cwiseAbs().maxCoeff();
+    return load > 0.0 ? worst / load : worst;
+  }
+  double slack(int e, double sigma) const {
+    return std::isfinite(scale_.lower[e]) ? sigma - scale_.lower[e] : scale_.upper[e] - sigma;
+  }
+  bool factorize(bool move_positions);
+  // Solves for the step (anchored or plain) with the current factorization.
+  void step_direction(bool anchored);
+  // Backtracking along the step within the slack and trust limits; true when accepted.
+  bool line_search();
+  SolveResult finish(Status status, std::string message) {
+    return make_part_result(part_, eq_.free_nodes(), q_, sigma_, status, std::move(message), options_.tolerance,
+                            recorder_);
+  }
+  void record(int iteration) {
+    TracePoint p;
+    p.iteration = iteration;
+    p.evaluations = evaluations_;
+    p.relative_residual = relative_residual(f_, sigma_);
+    double worst = 0.0;
+    for (int k = 0; k < eq_.free_nodes().num_free(); ++k) worst = std::max(worst, f_.segment<3>(3 * k).norm());
+    p.residual = worst;
+    p.geometry_change = (q_ - q0_).norm();
+    p.objective = phi_;
+    recorder_.record(p);
+  }
+
+  const Structure& part_;
+  const SolveOptions& options_;
+  const InteriorGaussNewtonOptions& o_;
+  TraceRecorder recorder_;
+  Equilibrium eq_;
+  ForceScale scale_;
+  double L_, F0_, wn_;
+  double gravity_scale_ = 0.0;
+  std::unique_ptr<NormalMatrix> normal_;
+  Eigen::VectorXd q0_, q_, q_trial_, f_, f_trial_, dq_, offset_, jd_;
+  Eigen::VectorXd sigma_, sigma_trial_, dsigma_, weight_, rhs_, y_;
+  double phi_ = 0.0, lambda_ = 0.0;
+  int evaluations_ = 0;
+  bool move_positions_ = true;
+};
+
+bool InteriorSolve::factorize(bool move_positions) {
+  move_positions_ = move_positions;
+  const int m = eq_.num_elements();
+  for (int e = 0; e < m; ++e) {
+    const double s = slack(e, sigma_[e]) / F0_;
+    weight_[e] = o_.force_weight * s * s;
+  }
+  const Eigen::SparseMatrix<double>& J = eq_.jacobian_positions(sigma_);
+  if (!normal_) {
+    normal_ = std::make_unique<NormalMatrix>(J, eq_.A(),
+                                             scale_.has_normalisation() ? &scale_.normalisation_row : nullptr);
+    rhs_.resize(normal_->size());
+    y_.resize(normal_->size());
+  }
+  const double wq = move_positions ? (L_ / F0_) * (L_ / F0_) : 0.0;
+  for (int attempt = 0; attempt < 6; ++attempt) {
+    if (normal_->assemble_and_factorize(J, wq, eq_.A(), weight_, wn_, lambda_)) return true;
+    lambda_ = std::max(1e-12, lambda_ * 100.0);
+  }
+  return false;
+}
+
+void InteriorSolve::step_direction(bool anchored) {
+  const int nq = eq_.num_equations();
+  const Eigen::SparseMatrix<double>& J = eq_.jacobian_positions(sigma_);
+  const Eigen::SparseMatrix<double>& A = eq_.A();
+  const bool norm = scale_.has_normalisation();
+  // In units of F0: r + J_hat dq_hat + A dsigma_hat = 0 with J_hat = J L / F0.
+  rhs_.head(nq) = -f_ / F0_;
+  if (norm) rhs_[nq] = -wn_ * (scale_.normalisation_row.dot(sigma_) - scale_.normalisation_target) / F0_;
+  if (anchored && move_positions_) {
+    offset_ = q0_ - q_;
+    jd_.noalias() = J * offset_;
+    rhs_.head(nq) -= jd_ / F0_;
+  }
+  normal_->solve(rhs_, y_);
+  if (move_positions_) {
+    dq_.noalias() = J.transpose() * y_.head(nq);
+    dq_ *= L_ * L_ / F0_;
+    if (anchored) dq_ += offset_;
+  } else {
+    dq_.setZero();
+  }
+  dsigma_.noalias() = A.transpose() * y_.head(nq);
+  if (norm) dsigma_ += (wn_ * y_[nq]) * scale_.normalisation_row;
+  dsigma_ = (F0_ * dsigma_.array() * weight_.array()).matrix();
+}
+
+bool InteriorSolve::line_search() {
+  const int m = eq_.num_elements();
+  double alpha = 1.0;
+  for (int e = 0; e < m; ++e) {
+    const double toward_bound = std::isfinite(scale_.lower[e]) ? -dsigma_[e] : dsigma_[e];
+    if (toward_bound > 0.0) alpha = std::min(alpha, o_.boundary_fraction * slack(e, sigma_[e]) / toward_bound);
+  }
+  double largest_move = 0.0;
+  for (int k = 0; k < eq_.free_nodes().num_free(); ++k) largest_move = std::max(largest_move, dq_.segment<3>(3 * k).norm());
+  if (!std::isfinite(largest_move) || !dsigma_.allFinite() || !(alpha > 0.0)) return false;
+  if (alpha * largest_move > o_.max_step * L_) alpha = o_.max_step * L_ / largest_move;
+  for (int halving = 0; halving < 12; ++halving, alpha *= 0.5) {
+    q_trial_ = q_ + alpha * dq_;
+    sigma_trial_ = sigma_ + alpha * dsigma_;
+    eq_.set_free_coordinates(q_trial_);
+    ++evaluations_;
+    const double phi_trial = objective(sigma_trial_, f_trial_);
+    if (phi_trial < phi_ * (1.0 - 1e-4 * alpha)) {
+      q_.swap(q_trial_);
+      sigma_.swap(sigma_trial_);
+      f_.swap(f_trial_);
+      phi_ = phi_trial;
+      return true;
+    }
+  }
+  eq_.set_free_coordinates(q_);
+  return false;
+}
+
+SolveResult InteriorSolve::run() {
+  const int m = eq_.num_elements();
+  if (eq_.has_gravity() && eq_.free_nodes().num_free() == part_.num_nodes()) {
+    sigma_ = reference_forces(part_, scale_);
+    phi_ = objective(sigma_, f_);
+    record(0);
+    return finish(Status::Infeasible, "a gravity load on a part without fixed nodes cannot be balanced");
+  }
+  // Is the input already a tensegrity? With the caller's QP forces that is
+  // one evaluation; without them, force-only steps (the geometry fixed).
+  if (options_.initial_forces.size() == m && options_.initial_forces.allFinite()) {
+    sigma_ = options_.initial_forces;
+    phi_ = objective(sigma_, f_);
+    if (relative_residual(f_, sigma_) <= options_.tolerance) {
+      record(0);
+      return finish(Status::Converged, "in equilibrium at the input geometry");
+    }
+  } else {
+    sigma_ = reference_forces(part_, scale_);
+    phi_ = objective(sigma_, f_);
+    lambda_ = o_.lambda;
+    for (int step = 0; step < 4 && factorize(false); ++step) {
+      const double before = phi_;
+      step_direction(false);
+      if (!line_search()) break;
+      if (relative_residual(f_, sigma_) <= options_.tolerance) {
+        record(0);
+        return finish(Status::Converged, "in equilibrium at the input geometry");
+      }
+      if (phi_ > 1e-3 * before) break;  // not converging like Newton: the geometry must move
+    }
+  }
+
+  sigma_ = reference_forces(part_, scale_);
+  phi_ = objective(sigma_, f_);
+  lambda_ = o_.lambda;
+  bool anchored = true;
+  for (int iteration = 0;; ++iteration) {
+    record(iteration);
+    const double rel = recorder_.trace().back().relative_residual;
+    if (!std::isfinite(phi_) || !std::isfinite(rel)) return finish(Status::NumericalError, "non-finite residual");
+    if (rel <= options_.tolerance)
+      return finish(Status::Converged, "converged after " + std::to_string(iteration) + " interior Gauss-Newton steps");
+    if (iteration >= std::min(o_.max_iterations, options_.max_iterations))
+      return finish(Status::MaxIterations, "interior Gauss-Newton step budget spent");
+    if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent");
+    if (!factorize(true)) return finish(Status::NumericalError, "the normal matrix could not be factorized");
+    const double before = phi_;
+    step_direction(anchored);
+    bool accepted = line_search();
+    if (!accepted && anchored) {
+      anchored = false;
+      step_direction(false);
+      accepted = line_search();
+    }
+    if (!accepted) {
+      lambda_ = std::max(1e-10, lambda_ * 100.0);
+      if (lambda_ > 1e6) return finish(Status::MaxIterations, "stalled: no step decreases Eq. 4's objective");
+      continue;
+    }
+    lambda_ = std::max(o_.lambda, lambda_ * 0.01);
+    if (anchored && phi_ > o_.anchor_until * before) anchored = false;
+  }
+}
+
+}  // namespace
+
+SolveResult solve_interior_gauss_newton(const Structure& part, const SolveOptions& options,
+                                        const InteriorGaussNewtonOptions& interior) {
+  InteriorSolve solve(part, options, interior);
+  return solve.run();
+}
+
+}  // namespace tensegrity
