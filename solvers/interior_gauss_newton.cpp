@@ -22,6 +22,12 @@ bool InteriorGaussNewtonOptions::IsValid() const {
 
 namespace {
 
+// Near the solution the normal matrix hardly changes from one step to the
+// next: after a full plain step that cut Eq. 4's objective by this ratio or
+// more, the next step first reuses the factorization (with J and A at the
+// new point) and keeps it only if it cuts the objective as much again.
+constexpr double kChordRatio = 0.1;
+
 class InteriorSolve {
  public:
   InteriorSolve(const Structure& part, const SolveOptions& options, const InteriorGaussNewtonOptions& o)
@@ -69,8 +75,10 @@ class InteriorSolve {
   bool factorize(bool move_positions);
   // Solves for the step (anchored or plain) with the current factorization.
   void step_direction(bool anchored);
-  // Backtracking along the step within the slack and trust limits; true when accepted.
-  bool line_search();
+  // Backtracking along the step within the slack and trust limits; true when
+  // accepted. A chord step (old factorization) gets no backtracking and must
+  // cut the objective by kChordRatio.
+  bool line_search(bool chord = false);
   SolveResult finish(Status status, std::string message) {
     return make_part_result(part_, eq_.free_nodes(), q_, sigma_, status, std::move(message), options_.tolerance,
                             recorder_);
@@ -97,11 +105,13 @@ class InteriorSolve {
   double L_, F0_, wn_;
   double gravity_scale_ = 0.0;
   std::unique_ptr<NormalMatrix> normal_;
+  const Eigen::SparseMatrix<double>* jacobian_ = nullptr;
   Eigen::VectorXd q0_, q_, q_trial_, f_, f_trial_, dq_, offset_, jd_;
   Eigen::VectorXd sigma_, sigma_trial_, dsigma_, weight_, rhs_, y_;
   double phi_ = 0.0, lambda_ = 0.0;
   int evaluations_ = 0;
   bool move_positions_ = true;
+  bool chord_ = false;  // try the next step on the current factorization
 };
 
 bool InteriorSolve::factorize(bool move_positions) {
@@ -111,7 +121,10 @@ bool InteriorSolve::factorize(bool move_positions) {
     const double s = slack(e, sigma_[e]) / F0_;
     weight_[e] = o_.force_weight * s * s;
   }
+  // J stays valid until the next factorize(): trial geometries in the line
+  // search do not touch it.
   const Eigen::SparseMatrix<double>& J = eq_.jacobian_positions(sigma_);
+  jacobian_ = &J;
   if (!normal_) {
     normal_ = std::make_unique<NormalMatrix>(J, eq_.A(),
                                              scale_.has_normalisation() ? &scale_.normalisation_row : nullptr);
@@ -128,7 +141,7 @@ bool InteriorSolve::factorize(bool move_positions) {
 
 void InteriorSolve::step_direction(bool anchored) {
   const int nq = eq_.num_equations();
-  const Eigen::SparseMatrix<double>& J = eq_.jacobian_positions(sigma_);
+  const Eigen::SparseMatrix<double>& J = *jacobian_;  // from factorize(), at (q, sigma)
   const Eigen::SparseMatrix<double>& A = eq_.A();
   const bool norm = scale_.has_normalisation();
   // In units of F0: r + J_hat dq_hat + A dsigma_hat = 0 with J_hat = J L / F0.
@@ -152,7 +165,7 @@ void InteriorSolve::step_direction(bool anchored) {
   dsigma_ = (F0_ * dsigma_.array() * weight_.array()).matrix();
 }
 
-bool InteriorSolve::line_search() {
+bool InteriorSolve::line_search(bool chord) {
   const int m = eq_.num_elements();
   double alpha = 1.0;
   for (int e = 0; e < m; ++e) {
@@ -163,13 +176,13 @@ bool InteriorSolve::line_search() {
   for (int k = 0; k < eq_.free_nodes().num_free(); ++k) largest_move = std::max(largest_move, dq_.segment<3>(3 * k).norm());
   if (!std::isfinite(largest_move) || !dsigma_.allFinite() || !(alpha > 0.0)) return false;
   if (alpha * largest_move > o_.max_step * L_) alpha = o_.max_step * L_ / largest_move;
-  for (int halving = 0; halving < 12; ++halving, alpha *= 0.5) {
+  for (int halving = 0; halving < (chord ? 1 : 12); ++halving, alpha *= 0.5) {
     q_trial_ = q_ + alpha * dq_;
     sigma_trial_ = sigma_ + alpha * dsigma_;
     eq_.set_free_coordinates(q_trial_);
     ++evaluations_;
     const double phi_trial = objective(sigma_trial_, f_trial_);
-    if (phi_trial < phi_ * (1.0 - 1e-4 * alpha)) {
+    if (phi_trial < phi_ * (chord ? kChordRatio : 1.0 - 1e-4 * alpha)) {
       q_.swap(q_trial_);
       sigma_.swap(sigma_trial_);
       f_.swap(f_trial_);
@@ -227,8 +240,17 @@ SolveResult InteriorSolve::run() {
     if (iteration >= std::min(o_.max_iterations, options_.max_iterations))
       return finish(Status::MaxIterations, "interior Gauss-Newton step budget spent");
     if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent");
-    if (!factorize(true)) return finish(Status::NumericalError, "the normal matrix could not be factorized");
     const double before = phi_;
+    if (chord_) {
+      chord_ = false;
+      jacobian_ = &eq_.jacobian_positions(sigma_);
+      step_direction(false);
+      if (line_search(true)) {
+        chord_ = true;
+        continue;
+      }
+    }
+    if (!factorize(true)) return finish(Status::NumericalError, "the normal matrix could not be factorized");
     step_direction(anchored);
     bool accepted = line_search();
     if (!accepted && anchored) {
@@ -242,6 +264,7 @@ SolveResult InteriorSolve::run() {
       continue;
     }
     lambda_ = std::max(o_.lambda, lambda_ * 0.01);
+    chord_ = !anchored && phi_ <= kChordRatio * before;
     if (anchored && phi_ > o_.anchor_until * before) anchored = false;
   }
 }

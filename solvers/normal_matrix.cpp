@@ -145,6 +145,8 @@ NormalMatrix::NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const E
     col.normalised = has_norm_ && (*normalisation_row)[e] != 0.0;
   }
   norm_diagonal_ = has_norm_ ? factor_.slot(nodes_, nodes_) : -1;
+  diagonal_slot_.resize(nodes_);
+  for (int s = 0; s < nodes_; ++s) diagonal_slot_[s] = factor_.slot(s, s);
   x_.resize(3 * blocks);
 }
 
@@ -182,9 +184,9 @@ bool NormalMatrix::assemble_and_factorize(const SparseMatrix& J, double wq, cons
     if (col.normalised) norm_diagonal += w * norm_weight * norm_weight;
   }
   double trace = norm_diagonal;
-  for (int s = 0; s < nodes_; ++s) trace += factor_.block(factor_.slot(s, s)).trace();
+  for (int slot : diagonal_slot_) trace += factor_.block(slot).trace();
   const double lambda = lambda_relative * (trace > 0.0 ? trace / size_ : 1.0);
-  for (int s = 0; s < nodes_; ++s) factor_.block(factor_.slot(s, s)).diagonal().array() += lambda;
+  for (int slot : diagonal_slot_) factor_.block(slot).diagonal().array() += lambda;
   if (has_norm_) factor_.block(norm_diagonal_).diagonal() << norm_diagonal + lambda, 1.0, 1.0;
   return factor_.factorize();
 }

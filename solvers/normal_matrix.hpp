@@ -64,7 +64,7 @@ class NormalMatrix {
   std::vector<int> j_column_begin_;
   std::vector<JjEntry> jj_plan_;
   std::vector<AColumn> a_column_;
-  std::vector<int> new_node_;
+  std::vector<int> new_node_, diagonal_slot_;
   int norm_diagonal_ = -1;
   BlockCholesky factor_;
   Eigen::VectorXd x_;
