@@ -5,7 +5,7 @@
 # Prints the wall time of every step (README, "Robustness").
 #   TENSEGRITY_SKIP_SANITIZERS=1   skip the sanitizer build and run
 #   TENSEGRITY_SKIP_FUZZ=1         skip the fuzz run
-#   TENSEGRITY_FUZZ_SECONDS=N      seconds per fuzz target (default 30)
+#   TENSEGRITY_FUZZ_SECONDS=N      seconds per fuzz target (default 20)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
@@ -44,6 +44,6 @@ if [ "${TENSEGRITY_SKIP_SANITIZERS:-0}" != 1 ]; then
 fi
 if [ "${TENSEGRITY_SKIP_FUZZ:-0}" != 1 ]; then
   step "fuzz job (libFuzzer, clang, ASan + UBSan): scene and character parsers"
-  bash scripts/fuzz.sh "${TENSEGRITY_FUZZ_SECONDS:-30}"
+  bash scripts/fuzz.sh "${TENSEGRITY_FUZZ_SECONDS:-20}"
   step "fuzz job done"
 fi
