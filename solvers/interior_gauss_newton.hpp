@@ -36,7 +36,7 @@ namespace tensegrity {
 
 struct InteriorGaussNewtonOptions {
   int max_iterations = 40;         // 0: skip this attempt
-  double force_weight = 1e3;       // w_e / (s_e / F0)^2
+  double force_weight = 3e3;       // w_e / (s_e / F0)^2
   double boundary_fraction = 0.99; // share of a force's slack one step may use
   double anchor_until = 0.3;       // keep the anchor while phi_new <= anchor_until * phi
   double max_step = 0.25;          // largest node move per step (units of L)
