@@ -48,6 +48,23 @@ int BlockCholesky::slot(int r, int c) const {
   return it != row_.begin() + end && *it == r ? static_cast<int>(it - row_.begin()) : -1;
 }
 
+std::vector<int> BlockCholesky::slots(const std::vector<std::pair<int, int>>& blocks) const {
+  const int nb = num_blocks();
+  // Requests bucketed by column, then each column's rows mapped once.
+  std::vector<int> bucket_begin(nb + 1, 0), order(blocks.size()), result(blocks.size(), -1), position(nb, -1);
+  for (const auto& [r, c] : blocks) ++bucket_begin[c + 1];
+  for (int c = 0; c < nb; ++c) bucket_begin[c + 1] += bucket_begin[c];
+  std::vector<int> fill(bucket_begin.begin(), bucket_begin.end() - 1);
+  for (std::size_t i = 0; i < blocks.size(); ++i) order[fill[blocks[i].second]++] = static_cast<int>(i);
+  for (int c = 0; c < nb; ++c) {
+    if (bucket_begin[c] == bucket_begin[c + 1]) continue;
+    for (int p = column_begin_[c]; p < column_begin_[c + 1]; ++p) position[row_[p]] = p;
+    for (int k = bucket_begin[c]; k < bucket_begin[c + 1]; ++k) result[order[k]] = position[blocks[order[k]].first];
+    for (int p = column_begin_[c]; p < column_begin_[c + 1]; ++p) position[row_[p]] = -1;
+  }
+  return result;
+}
+
 void BlockCholesky::set_zero() {
   for (auto& v : values_) v.setZero();
 }

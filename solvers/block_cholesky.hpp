@@ -16,6 +16,7 @@
 // set_zero(), call factorize(), and solve() any number of right-hand sides.
 // The block order is the caller's (a fill-reducing order is its business).
 #include <Eigen/Core>
+#include <utility>
 #include <vector>
 
 namespace tensegrity {
@@ -29,6 +30,9 @@ class BlockCholesky {
   // Storage index of block (r, c), r >= c, of the pattern of L (N's pattern
   // is part of it); -1 when absent.
   int slot(int r, int c) const;
+  // The same for many blocks at once, in time linear in their number and the
+  // pattern's size: slots[i] = slot(blocks[i].first, blocks[i].second).
+  std::vector<int> slots(const std::vector<std::pair<int, int>>& blocks) const;
   Eigen::Matrix3d& block(int slot) { return values_[slot]; }
   double* data(int slot) { return values_[slot].data(); }
   void set_zero();

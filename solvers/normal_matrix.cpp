@@ -48,34 +48,35 @@ NormalMatrix::NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const E
     j_column_begin_[b + 1] = static_cast<int>(j_blocks_.size());
   }
 
-  // Node graph of N: a ~ c when both meet some column block b of J (J J^T),
-  // which includes A's node pairs (an element's ends are J-adjacent).
-  std::vector<std::vector<int>> adjacent(nodes_);
-  for (int b = 0; b < nodes_; ++b)
-    for (int k1 = j_column_begin_[b]; k1 < j_column_begin_[b + 1]; ++k1)
-      for (int k2 = j_column_begin_[b]; k2 < j_column_begin_[b + 1]; ++k2)
-        adjacent[j_blocks_[k1].node].push_back(j_blocks_[k2].node);
-  for (int e = 0; e < m; ++e) {
-    std::vector<int> ends;
-    for (int p = A.outerIndexPtr()[e]; p < A.outerIndexPtr()[e + 1]; p += 3) ends.push_back(A.innerIndexPtr()[p] / 3);
-    for (int a : ends)
-      for (int c : ends) adjacent[a].push_back(c);
-  }
+  // Node graph of N: a ~ c when both meet some column block b of J (J J^T).
+  // That includes A's node pairs (an element's free ends are J-adjacent) and
+  // every diagonal (J has all diagonal blocks). J's block pattern is
+  // symmetric, so the neighbours of a are the rows of the columns b of a.
+  std::vector<int> adjacent_begin(nodes_ + 1, 0), adjacent, mark(nodes_, -1);
   for (int a = 0; a < nodes_; ++a) {
-    adjacent[a].push_back(a);
-    std::sort(adjacent[a].begin(), adjacent[a].end());
-    adjacent[a].erase(std::unique(adjacent[a].begin(), adjacent[a].end()), adjacent[a].end());
+    for (int k1 = j_column_begin_[a]; k1 < j_column_begin_[a + 1]; ++k1) {
+      const int b = j_blocks_[k1].node;
+      for (int k2 = j_column_begin_[b]; k2 < j_column_begin_[b + 1]; ++k2) {
+        const int c = j_blocks_[k2].node;
+        if (mark[c] != a) {
+          mark[c] = a;
+          adjacent.push_back(c);
+        }
+      }
+    }
+    std::sort(adjacent.begin() + adjacent_begin[a], adjacent.end());
+    adjacent_begin[a + 1] = static_cast<int>(adjacent.size());
   }
 
   // Fill-reducing ordering of the node graph (3x3 blocks eliminate together);
   // the normalisation unknown, coupled to every cable end, goes last.
   new_node_.resize(nodes_);
   {
-    std::vector<Eigen::Triplet<double>> t;
-    for (int a = 0; a < nodes_; ++a)
-      for (int c : adjacent[a]) t.emplace_back(a, c, 1.0);
     SparseMatrix graph(nodes_, nodes_);
-    graph.setFromTriplets(t.begin(), t.end());
+    graph.resizeNonZeros(static_cast<int>(adjacent.size()));
+    std::copy(adjacent_begin.begin(), adjacent_begin.end(), graph.outerIndexPtr());
+    std::copy(adjacent.begin(), adjacent.end(), graph.innerIndexPtr());
+    std::fill(graph.valuePtr(), graph.valuePtr() + adjacent.size(), 1.0);
     Eigen::AMDOrdering<int> amd;
     Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> inverse;
     amd(graph, inverse);
@@ -91,8 +92,10 @@ NormalMatrix::NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const E
   const int blocks = nodes_ + (has_norm_ ? 1 : 0);
   std::vector<std::vector<int>> lower(blocks);
   for (int a = 0; a < nodes_; ++a)
-    for (int c : adjacent[a])
+    for (int p = adjacent_begin[a]; p < adjacent_begin[a + 1]; ++p) {
+      const int c = adjacent[p];
       if (new_node_[a] >= new_node_[c]) lower[new_node_[c]].push_back(new_node_[a]);
+    }
   std::vector<char> touches_norm(nodes_, 0);
   if (has_norm_) {
     for (int e = 0; e < m; ++e)
@@ -103,14 +106,16 @@ NormalMatrix::NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const E
       if (touches_norm[a]) lower[new_node_[a]].push_back(nodes_);
     lower[nodes_].push_back(nodes_);
   }
-  for (auto& list : lower) std::sort(list.begin(), list.end());
   factor_.analyze(lower);
 
-  // Slot of N's block (a, c) (old node numbers) in the lower triangle;
-  // `transposed` when it is stored as (c, a).
-  auto slot_of = [&](int a, int c, bool& transposed) {
-    transposed = new_node_[a] < new_node_[c];
-    return transposed ? factor_.slot(new_node_[c], new_node_[a]) : factor_.slot(new_node_[a], new_node_[c]);
+  // Storage of N's blocks: every (a, c) in old numbers is stored as the
+  // lower-triangle block (max, min) of the new numbers; the slots of all
+  // blocks the plans touch are resolved in one pass.
+  std::vector<std::pair<int, int>> requests;
+  auto request = [&](int a, int c) {
+    const int r = std::max(new_node_[a], new_node_[c]), col = std::min(new_node_[a], new_node_[c]);
+    requests.emplace_back(r, col);
+    return static_cast<int>(requests.size()) - 1;
   };
   // J J^T plan: every ordered pair (k1, k2) of blocks in one column block b
   // of J with new(a1) >= new(a2) adds J_a1b J_a2b^T to the stored block.
@@ -118,8 +123,7 @@ NormalMatrix::NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const E
     for (int k1 = j_column_begin_[b]; k1 < j_column_begin_[b + 1]; ++k1)
       for (int k2 = j_column_begin_[b]; k2 < j_column_begin_[b + 1]; ++k2) {
         const int a1 = j_blocks_[k1].node, a2 = j_blocks_[k2].node;
-        bool transposed;
-        if (new_node_[a1] >= new_node_[a2]) jj_plan_.push_back({k1, k2, slot_of(a1, a2, transposed)});
+        if (new_node_[a1] >= new_node_[a2]) jj_plan_.push_back({k1, k2, request(a1, a2)});
       }
   // A W A^T plan: per element its (one or two) node blocks, the first with
   // the larger new index, so that block (end 0, end 1) is in the lower triangle.
@@ -136,13 +140,23 @@ NormalMatrix::NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const E
       std::swap(col.node[0], col.node[1]);
       std::swap(col.value_offset[0], col.value_offset[1]);
     }
-    bool transposed;
     for (int k = 0; k < col.count; ++k) {
-      col.diagonal[k] = slot_of(col.node[k], col.node[k], transposed);
-      col.norm[k] = has_norm_ && touches_norm[col.node[k]] ? factor_.slot(nodes_, new_node_[col.node[k]]) : -1;
+      col.diagonal[k] = factor_.slot(new_node_[col.node[k]], new_node_[col.node[k]]);
+      col.norm[k] = -1;
+      if (has_norm_ && touches_norm[col.node[k]]) {
+        requests.emplace_back(nodes_, new_node_[col.node[k]]);
+        col.norm[k] = static_cast<int>(requests.size()) - 1;
+      }
     }
-    if (col.count == 2) col.off_diagonal = slot_of(col.node[0], col.node[1], transposed);
+    if (col.count == 2) col.off_diagonal = request(col.node[0], col.node[1]);
     col.normalised = has_norm_ && (*normalisation_row)[e] != 0.0;
+  }
+  const std::vector<int> slots = factor_.slots(requests);
+  for (JjEntry& p : jj_plan_) p.target = slots[p.target];
+  for (AColumn& col : a_column_) {
+    for (int k = 0; k < col.count; ++k)
+      if (col.norm[k] >= 0) col.norm[k] = slots[col.norm[k]];
+    if (col.count == 2) col.off_diagonal = slots[col.off_diagonal];
   }
   norm_diagonal_ = has_norm_ ? factor_.slot(nodes_, nodes_) : -1;
   diagonal_slot_.resize(nodes_);
