@@ -100,7 +100,9 @@ TEST(BackendCrossCheck, IpoptGeometryChangeIsNeverLargerThanTheApproximations) {
                   name.c_str(), r.stats.geometry_change, ratio);
       EXPECT_LE(best.stats.geometry_change, r.stats.geometry_change * (1.0 + 1e-5))
           << scene.name << " " << name;
-      if (name == "alternating-gn") EXPECT_LE(ratio, 1.05) << scene.name;
+      if (name == "alternating-gn") {
+        EXPECT_LE(ratio, 1.05) << scene.name;
+      }
     }
   }
 }
