@@ -7,6 +7,7 @@
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
 #include "formulations/stress_qp.hpp"
+#include "solvers/eq4_measure.hpp"
 #include "solvers/normal_matrix.hpp"
 #include "solvers/part_result.hpp"
 #include "solvers/trace_recorder.hpp"
@@ -39,35 +40,21 @@ class InteriorSolve {
         scale_(make_force_scale(part, o.margin_fraction > 0.0 ? o.margin_fraction : options.margin_fraction)),
         L_(part.mean_element_length()),
         F0_(scale_.reference_force),
-        wn_(StressQpOptions{}.normalisation_weight) {
+        wn_(StressQpOptions{}.normalisation_weight),
+        measure_(eq_, scale_, wn_) {
     const int nq = eq_.num_equations(), m = eq_.num_elements();
     q0_ = eq_.free_nodes().gather(part.positions);
     q_ = q0_;
     for (Eigen::VectorXd* v : {&q_trial_, &f_, &f_trial_, &dq_, &offset_, &jd_}) v->resize(nq);
     for (Eigen::VectorXd* v : {&sigma_trial_, &dsigma_, &weight_}) v->resize(m);
-    const Eigen::VectorXd& fg = eq_.gravity_load();
-    for (int k = 0; k < eq_.free_nodes().num_free(); ++k)
-      gravity_scale_ = std::max(gravity_scale_, fg.segment<3>(3 * k).norm());
   }
 
   SolveResult run();
 
  private:
-  // Eq. 4's objective |f|^2 + w^2 (c^T sigma - t)^2 (N^2) at the current geometry; writes f.
-  double objective(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const {
-    eq_.residual(sigma, f);
-    double phi = f.squaredNorm();
-    if (scale_.has_normalisation()) {
-      const double r = scale_.normalisation_row.dot(sigma) - scale_.normalisation_target;
-      phi += wn_ * wn_ * r * r;
-    }
-    return phi;
-  }
+  double objective(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const { return measure_.objective(sigma, f); }
   double relative_residual(const Eigen::VectorXd& f, const Eigen::VectorXd& sigma) const {
-    double worst = 0.0;
-    for (int k = 0; k < eq_.free_nodes().num_free(); ++k) worst = std::max(worst, f.segment<3>(3 * k).norm());
-    const double load = gravity_scale_ > 0.0 ? gravity_scale_ : sigma.cwiseAbs().maxCoeff();
-    return load > 0.0 ? worst / load : worst;
+    return measure_.relative_residual(measure_.max_node_residual(f), sigma);
   }
   double slack(int e, double sigma) const {
     return std::isfinite(scale_.lower[e]) ? sigma - scale_.lower[e] : scale_.upper[e] - sigma;
@@ -87,10 +74,8 @@ class InteriorSolve {
     TracePoint p;
     p.iteration = iteration;
     p.evaluations = evaluations_;
-    p.relative_residual = relative_residual(f_, sigma_);
-    double worst = 0.0;
-    for (int k = 0; k < eq_.free_nodes().num_free(); ++k) worst = std::max(worst, f_.segment<3>(3 * k).norm());
-    p.residual = worst;
+    p.residual = measure_.max_node_residual(f_);
+    p.relative_residual = measure_.relative_residual(p.residual, sigma_);
     p.geometry_change = (q_ - q0_).norm();
     p.objective = phi_;
     recorder_.record(p);
@@ -103,7 +88,7 @@ class InteriorSolve {
   Equilibrium eq_;
   ForceScale scale_;
   double L_, F0_, wn_;
-  double gravity_scale_ = 0.0;
+  Eq4Measure measure_;
   std::unique_ptr<NormalMatrix> normal_;
   const Eigen::SparseMatrix<double>* jacobian_ = nullptr;
   Eigen::VectorXd q0_, q_, q_trial_, f_, f_trial_, dq_, offset_, jd_;
