@@ -221,6 +221,24 @@ const Eigen::SparseMatrix<double>& Equilibrium::jacobian_positions(const Eigen::
   return J_;
 }
 
+void Equilibrium::jacobian_positions_product(const Eigen::VectorXd& sigma, const Eigen::VectorXd& v,
+                                             Eigen::VectorXd& out) const {
+  assert(&out != &v);
+  out.setZero(num_equations());
+  for (int e = 0; e < num_elements(); ++e) {
+    const double l = length_[e];
+    if (!(l > 0.0)) continue;
+    const int sa = slot_a_[e], sb = slot_b_[e];
+    Eigen::Vector3d w = Eigen::Vector3d::Zero();
+    if (sb >= 0) w = v.segment<3>(3 * sb);
+    if (sa >= 0) w -= v.segment<3>(3 * sa);
+    const Eigen::Vector3d u = unit_.col(e);
+    const Eigen::Vector3d k = (sigma[e] / l) * (w - u.dot(w) * u);  // K w
+    if (sa >= 0) out.segment<3>(3 * sa) += k;
+    if (sb >= 0) out.segment<3>(3 * sb) -= k;
+  }
+}
+
 void Equilibrium::hessian_structure(std::vector<int>& rows, std::vector<int>& cols) const {
   rows = h_rows_;
   cols = h_cols_;

@@ -50,6 +50,14 @@ class Equilibrium {
   // Pattern fixed; values rewritten. Element e adds K = sigma_e (I - u u^T) / l
   // as -K to blocks (a,a), (b,b) and +K to (a,b), (b,a).
   const Eigen::SparseMatrix<double>& jacobian_positions(const Eigen::VectorXd& sigma);
+  // out = J v with J = df/dq above, element by element without assembling J
+  // (J is symmetric, so this is also J^T v): element e adds K (v_b - v_a) to
+  // the rows of a and subtracts it from those of b (v of a fixed end = 0).
+  // About a third of the work of refreshing J's values and multiplying, for a
+  // loop (Algorithm 1's gradient steps) that needs two products per geometry.
+  // out must not alias v; it is resized only when its size is wrong.
+  void jacobian_positions_product(const Eigen::VectorXd& sigma, const Eigen::VectorXd& v,
+                                  Eigen::VectorXd& out) const;
 
   // Hessian of lambda^T f(q, sigma) with respect to z = (q, sigma), lower
   // triangle only, as triplets whose (row, col) order never changes:

@@ -150,13 +150,14 @@ void PartSolve::faithful_phase() {
   q_start_ = q_;
   double budget = alt_.gamma * length;
   for (int i = 0; budget > 0.0 && i < alt_.i_max; ++i) {
-    const SparseMatrix& J = eq_.jacobian_positions(sigma_);
-    g_.noalias() = J.transpose() * f_;
+    // J is symmetric: g = J^T f = J f and J d = -J g / |g|, two matrix-free
+    // products at the geometry the line search left in eq_ (J is never assembled).
+    eq_.jacobian_positions_product(sigma_, f_, g_);
     const double gradient_norm = g_.norm();
     if (!(gradient_norm > 0.0) || !std::isfinite(gradient_norm)) break;
-    d_ = -g_ / gradient_norm;  // Eq. 6 with the descent sign: dx = gamma_acc * d
-    jd_.noalias() = J * d_;
-    const double curvature = jd_.squaredNorm();
+    d_ = g_ * (-1.0 / gradient_norm);  // Eq. 6 with the descent sign: dx = gamma_acc * d
+    eq_.jacobian_positions_product(sigma_, g_, jd_);
+    const double curvature = jd_.squaredNorm() / (gradient_norm * gradient_norm);
     // d(|f|^2)/ds = 2 f^T J d = -2 |g|: the linearised minimiser is |g| / |J d|^2.
     double step = budget;
     if (curvature > 0.0) step = std::min(step, gradient_norm / curvature);

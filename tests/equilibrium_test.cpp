@@ -219,6 +219,61 @@ TEST(EquilibriumDerivatives, FiniteDifferencesOnSeveralScenes) {
 }
 
 // Second differences of the scalar lambda^T f itself, independent of J.
+// The matrix-free product J v (Algorithm 1's gradient steps use it instead of
+// the assembled J) against the assembled J, both ways (J is symmetric), and
+// against a central difference of f along v.
+TEST(EquilibriumDerivatives, JacobianProductMatchesAssembledJacobianAndDifferences) {
+  std::mt19937 rng(11);
+  double worst_assembled = 0.0, worst_transpose = 0.0, worst_difference = 0.0;
+  for (const Scene& scene : derivative_scenes()) {
+    SCOPED_TRACE(scene.label);
+    Equilibrium eq(scene.structure);
+    const int nq = eq.num_equations();
+    const Eigen::VectorXd sigma = random_vector(eq.num_elements(), 2.0, rng);
+    const Eigen::VectorXd v = random_vector(nq, 1.0, rng);
+    Eigen::VectorXd product(3);  // wrong size on purpose: the product resizes it
+    eq.jacobian_positions_product(sigma, v, product);
+    ASSERT_EQ(product.size(), nq);
+    const Eigen::SparseMatrix<double>& J = eq.jacobian_positions(sigma);
+    const Eigen::VectorXd assembled = J * v;
+    const Eigen::VectorXd transposed = J.transpose() * v;
+    worst_assembled = std::max(worst_assembled, relative_error(product, assembled));
+    worst_transpose = std::max(worst_transpose, relative_error(product, transposed));
+    const double h = 1e-6 * scene.structure.mean_element_length();
+    const Eigen::VectorXd q0 = eq.free_nodes().gather(scene.structure.positions);
+    eq.set_free_coordinates(q0 + h * v);
+    const Eigen::VectorXd f_plus = eq.residual(sigma);
+    eq.set_free_coordinates(q0 - h * v);
+    const Eigen::VectorXd f_minus = eq.residual(sigma);
+    eq.set_free_coordinates(q0);
+    worst_difference = std::max(worst_difference, relative_error(product, (f_plus - f_minus) / (2.0 * h)));
+  }
+  std::printf("J v: worst relative error against J v %.2e, J^T v %.2e, differences %.2e\n", worst_assembled,
+              worst_transpose, worst_difference);
+  EXPECT_LE(worst_assembled, 1e-13);
+  EXPECT_LE(worst_transpose, 1e-13);
+  EXPECT_LE(worst_difference, 1e-7);
+}
+
+// A collapsed element contributes nothing to J v, as it contributes nothing to J.
+TEST(EquilibriumValues, JacobianProductSkipsZeroLengthElements) {
+  PrismParameters p;
+  p.n = 3;
+  const Structure s = make_regular_prism(p);
+  Equilibrium eq(s);
+  Eigen::Matrix3Xd x = s.positions;
+  x.col(3) = x.col(0);  // vertical cable 0-3 collapses
+  eq.set_positions(x);
+  ASSERT_TRUE(eq.degenerate());
+  const Eigen::VectorXd sigma = Eigen::VectorXd::LinSpaced(s.num_elements(), -1.0, 2.0);
+  const Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(eq.num_equations(), 0.5, -0.7);
+  Eigen::VectorXd product;
+  eq.jacobian_positions_product(sigma, v, product);
+  ASSERT_TRUE(product.allFinite());
+  const Eigen::VectorXd assembled = eq.jacobian_positions(sigma) * v;
+  EXPECT_LE((product - assembled).cwiseAbs().maxCoeff(), 1e-13 * assembled.cwiseAbs().maxCoeff());
+}
+
 TEST(EquilibriumDerivatives, HessianAgainstSecondDifferencesOfTheLagrangian) {
   std::mt19937 rng(11);
   PrismParameters p;
