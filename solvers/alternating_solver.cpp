@@ -13,6 +13,7 @@
 #include "formulations/stress_qp.hpp"
 #include "model/errors.hpp"
 #include "model/verify.hpp"
+#include "solvers/eq4_measure.hpp"
 #include "solvers/normal_matrix.hpp"
 #include "solvers/options_parsing.hpp"
 #include "solvers/part_result.hpp"
@@ -37,7 +38,8 @@ class PartSolve {
         scale_(make_force_scale(part, alt.margin > 0.0 ? alt.margin : options.margin_fraction)),
         eq_(part),
         qp_options_(make_qp_options(alt)),
-        qp_(eq_, scale_, qp_options_) {
+        qp_(eq_, scale_, qp_options_),
+        measure_(eq_, scale_, qp_options_.normalisation_weight) {
     eq_.set_positions(part.positions);
     const int nq = eq_.num_equations(), m = eq_.num_elements();
     q0_.resize(nq);
@@ -57,9 +59,6 @@ class PartSolve {
     sigma_trial_.resize(m);
     dsigma_.resize(m);
     force_weight_.resize(m);
-    const Eigen::VectorXd& fg = eq_.gravity_load();
-    for (int k = 0; k < eq_.free_nodes().num_free(); ++k)
-      gravity_scale_ = std::max(gravity_scale_, fg.segment<3>(3 * k).norm());
   }
 
   SolveResult run();
@@ -75,15 +74,7 @@ class PartSolve {
   }
 
   // Eq. 4's objective at the current geometry; writes f.
-  double objective(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const {
-    eq_.residual(sigma, f);
-    double phi = f.squaredNorm();
-    if (scale_.has_normalisation()) {
-      const double r = scale_.normalisation_row.dot(sigma) - scale_.normalisation_target;
-      phi += qp_options_.normalisation_weight * qp_options_.normalisation_weight * r * r;
-    }
-    return phi;
-  }
+  double objective(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const { return measure_.objective(sigma, f); }
 
   // Stress QP at the current geometry warm-started from sigma (in/out); keeps
   // the warm start when the QP result is not better, so Eq. 4's objective never
@@ -100,15 +91,9 @@ class PartSolve {
     return phi_qp;
   }
 
-  double node_residual(const Eigen::VectorXd& f) const {
-    double worst = 0.0;
-    for (int k = 0; k < eq_.free_nodes().num_free(); ++k) worst = std::max(worst, f.segment<3>(3 * k).norm());
-    return worst;
-  }
-
+  double node_residual(const Eigen::VectorXd& f) const { return measure_.max_node_residual(f); }
   double relative_residual(double residual, const Eigen::VectorXd& sigma) const {
-    const double load = gravity_scale_ > 0.0 ? gravity_scale_ : sigma.cwiseAbs().maxCoeff();
-    return load > 0.0 ? residual / load : residual;
+    return measure_.relative_residual(residual, sigma);
   }
 
   void faithful_phase();
@@ -126,7 +111,7 @@ class PartSolve {
   Equilibrium eq_;
   StressQpOptions qp_options_;
   StressQp qp_;
-  double gravity_scale_ = 0.0;
+  Eq4Measure measure_;
 
   Eigen::VectorXd q0_, q_, q_start_, q_trial_, f_, f_trial_, f_scratch_, g_, d_, jd_, dq_;
   Eigen::VectorXd sigma_, sigma_trial_, dsigma_, force_weight_, rhs_, y_;
