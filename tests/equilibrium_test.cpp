@@ -255,15 +255,26 @@ TEST(EquilibriumDerivatives, JacobianProductMatchesAssembledJacobianAndDifferenc
   EXPECT_LE(worst_difference, 1e-7);
 }
 
-// A collapsed element contributes nothing to J v, as it contributes nothing to J.
-TEST(EquilibriumValues, JacobianProductSkipsZeroLengthElements) {
+Structure regular_prism_3() {
   PrismParameters p;
   p.n = 3;
-  const Structure s = make_regular_prism(p);
+  return make_regular_prism(p);
+}
+
+// The equilibrium of `s` (a regular 3-prism) with its vertical cable 0-3
+// collapsed to zero length.
+Equilibrium collapsed(const Structure& s) {
   Equilibrium eq(s);
   Eigen::Matrix3Xd x = s.positions;
-  x.col(3) = x.col(0);  // vertical cable 0-3 collapses
+  x.col(3) = x.col(0);
   eq.set_positions(x);
+  return eq;
+}
+
+// A collapsed element contributes nothing to J v, as it contributes nothing to J.
+TEST(EquilibriumValues, JacobianProductSkipsZeroLengthElements) {
+  const Structure s = regular_prism_3();
+  Equilibrium eq = collapsed(s);
   ASSERT_TRUE(eq.degenerate());
   const Eigen::VectorXd sigma = Eigen::VectorXd::LinSpaced(s.num_elements(), -1.0, 2.0);
   const Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(eq.num_equations(), 0.5, -0.7);
@@ -486,13 +497,8 @@ TEST(EquilibriumStructure, HessianLayout) {
 }
 
 TEST(EquilibriumValues, ZeroLengthElementGivesNoNaN) {
-  PrismParameters p;
-  p.n = 3;
-  const Structure s = make_regular_prism(p);
-  Equilibrium eq(s);
-  Eigen::Matrix3Xd x = s.positions;
-  x.col(3) = x.col(0);  // vertical cable 0-3 collapses
-  eq.set_positions(x);
+  const Structure s = regular_prism_3();
+  Equilibrium eq = collapsed(s);
   EXPECT_TRUE(eq.degenerate());
   const Eigen::VectorXd sigma = Eigen::VectorXd::Ones(s.num_elements());
   EXPECT_TRUE(eq.residual(sigma).allFinite());
