@@ -39,6 +39,32 @@ void BlockCholesky::analyze(const std::vector<std::vector<int>>& lower) {
   cursor_.assign(nb, 0);
   head_.assign(nb, -1);
   next_.assign(nb, -1);
+
+  // The update plan: factorize()'s traversal, recording the slot each
+  // update writes to (saves two dependent lookups per 3x3 update).
+  update_target_.clear();
+  for (int k = 0; k < nb; ++k) {
+    const int begin = column_begin_[k], end = column_begin_[k + 1];
+    for (int p = begin; p < end; ++p) position_[row_[p]] = p;
+    for (int j = head_[k]; j != -1;) {
+      const int next_j = next_[j];
+      const int pj = cursor_[j], end_j = column_begin_[j + 1];
+      for (int p = pj; p < end_j; ++p) update_target_.push_back(position_[row_[p]]);
+      if (pj + 1 < end_j) {
+        cursor_[j] = pj + 1;
+        const int r = row_[pj + 1];
+        next_[j] = head_[r];
+        head_[r] = j;
+      }
+      j = next_j;
+    }
+    if (begin + 1 < end) {
+      cursor_[k] = begin + 1;
+      const int r = row_[begin + 1];
+      next_[k] = head_[r];
+      head_[r] = k;
+    }
+  }
 }
 
 int BlockCholesky::slot(int r, int c) const {
@@ -72,16 +98,17 @@ void BlockCholesky::set_zero() {
 bool BlockCholesky::factorize() {
   const int nb = num_blocks();
   std::fill(head_.begin(), head_.end(), -1);
+  const int* target = update_target_.data();
   for (int k = 0; k < nb; ++k) {
     const int begin = column_begin_[k], end = column_begin_[k + 1];
-    for (int p = begin; p < end; ++p) position_[row_[p]] = p;
     // Left-looking: every earlier column j with a block in row k updates
-    // column k by its rows >= k (all in k's pattern, by the symbolic step).
+    // column k by its rows >= k; where each update lands was worked out by
+    // analyze(), in this same order.
     for (int j = head_[k]; j != -1;) {
       const int next_j = next_[j];
       const int pj = cursor_[j], end_j = column_begin_[j + 1];
       const Eigen::Matrix3d lkj_t = values_[pj].transpose();
-      for (int p = pj; p < end_j; ++p) values_[position_[row_[p]]].noalias() -= values_[p] * lkj_t;
+      for (int p = pj; p < end_j; ++p) values_[*target++].noalias() -= values_[p] * lkj_t;
       if (pj + 1 < end_j) {
         cursor_[j] = pj + 1;
         const int r = row_[pj + 1];

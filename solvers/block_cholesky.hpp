@@ -50,6 +50,7 @@ class BlockCholesky {
   std::vector<Eigen::Matrix3d> inverse_diagonal_;  // L_kk^{-1}
   // Factorization workspace (sized once).
   std::vector<int> position_, cursor_, head_, next_;
+  std::vector<int> update_target_;  // per 3x3 update, in factorize()'s order: the slot it writes
 };
 
 }  // namespace tensegrity
