@@ -50,21 +50,20 @@ void BlockCholesky::analyze(const std::vector<std::vector<int>>& lower) {
       const int next_j = next_[j];
       const int pj = cursor_[j], end_j = column_begin_[j + 1];
       for (int p = pj; p < end_j; ++p) update_target_.push_back(position_[row_[p]]);
-      if (pj + 1 < end_j) {
-        cursor_[j] = pj + 1;
-        const int r = row_[pj + 1];
-        next_[j] = head_[r];
-        head_[r] = j;
-      }
+      wait_at_next_row(j, pj + 1);
       j = next_j;
     }
-    if (begin + 1 < end) {
-      cursor_[k] = begin + 1;
-      const int r = row_[begin + 1];
-      next_[k] = head_[r];
-      head_[r] = k;
-    }
+    wait_at_next_row(k, begin + 1);
   }
+}
+
+void BlockCholesky::wait_at_next_row(int j, int slot) {
+  // Column j's next update goes to the column of its block row at `slot`.
+  if (slot >= column_begin_[j + 1]) return;
+  cursor_[j] = slot;
+  const int r = row_[slot];
+  next_[j] = head_[r];
+  head_[r] = j;
 }
 
 int BlockCholesky::slot(int r, int c) const {
@@ -109,12 +108,7 @@ bool BlockCholesky::factorize() {
       const int pj = cursor_[j], end_j = column_begin_[j + 1];
       const Eigen::Matrix3d lkj_t = values_[pj].transpose();
       for (int p = pj; p < end_j; ++p) values_[*target++].noalias() -= values_[p] * lkj_t;
-      if (pj + 1 < end_j) {
-        cursor_[j] = pj + 1;
-        const int r = row_[pj + 1];
-        next_[j] = head_[r];
-        head_[r] = j;
-      }
+      wait_at_next_row(j, pj + 1);
       j = next_j;
     }
     // 3x3 Cholesky of the pivot block (lower triangle of the symmetric block).
@@ -143,12 +137,7 @@ bool BlockCholesky::factorize() {
     inverse_diagonal_[k] = inv;
     const Eigen::Matrix3d inv_t = inv.transpose();
     for (int p = begin + 1; p < end; ++p) values_[p] = values_[p] * inv_t;
-    if (begin + 1 < end) {
-      cursor_[k] = begin + 1;
-      const int r = row_[begin + 1];
-      next_[k] = head_[r];
-      head_[r] = k;
-    }
+    wait_at_next_row(k, begin + 1);
   }
   return true;
 }

@@ -44,6 +44,10 @@ class BlockCholesky {
   void solve(Eigen::VectorXd& x) const;
 
  private:
+  // Left-looking bookkeeping: queue column j (cursor at `slot`) on the list of
+  // the column its block row at `slot` names; nothing when j has no more rows.
+  void wait_at_next_row(int j, int slot);
+
   std::vector<int> column_begin_;   // per block column, its first slot (the diagonal)
   std::vector<int> row_;            // per slot, its block row
   std::vector<Eigen::Matrix3d> values_;
