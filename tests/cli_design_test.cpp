@@ -19,6 +19,7 @@
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"
 #include "process_runner.hpp"
+#include "simulation_fixtures.hpp"
 
 namespace tensegrity {
 namespace {
@@ -48,16 +49,7 @@ std::vector<std::vector<std::string>> read_csv(const std::string& path) {
 
 // A prism standing on its fixed bottom ring under gravity (no block ids).
 std::string gravity_prism(const ScratchDir& dir, int n = 4) {
-  PrismParameters p;
-  p.n = n;
-  p.radius = 0.1;
-  p.height = 0.15;
-  p.strut_mass = 0.02;
-  p.cable_mass = 0.001;
-  p.gravity = p.fix_bottom = true;
-  const std::string path = dir.file("prism.scene.json");
-  write_scene_file(make_regular_prism(p), path);
-  return path;
+  return testing::gravity_prism_scene(dir.work().string(), n, "prism.scene.json");
 }
 
 void expect_bad_input(const ScratchDir& dir, const std::vector<std::string>& args, const std::string& names,

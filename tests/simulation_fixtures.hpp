@@ -73,8 +73,10 @@ inline std::string run_design(const std::string& input, const std::string& args,
   return std::system(cmd.c_str()) == 0 ? out : std::string();
 }
 
-// A prism standing on its fixed bottom ring under gravity, written as a scene.
-inline std::string gravity_prism_scene(const std::string& dir, int n = 3) {
+// A prism standing on its fixed bottom ring under gravity, written as a scene
+// file `name` in `dir`.
+inline std::string gravity_prism_scene(const std::string& dir, int n = 3,
+                                       const std::string& name = "prism-gravity.scene.json") {
   PrismParameters p;
   p.n = n;
   p.radius = 0.1;
@@ -82,7 +84,7 @@ inline std::string gravity_prism_scene(const std::string& dir, int n = 3) {
   p.strut_mass = 0.02;
   p.cable_mass = 0.001;
   p.gravity = p.fix_bottom = true;
-  const std::string path = dir + "/prism-gravity.scene.json";
+  const std::string path = dir + "/" + name;
   write_scene_file(make_regular_prism(p), path);
   return path;
 }
