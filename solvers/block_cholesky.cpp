@@ -35,7 +35,6 @@ void BlockCholesky::analyze(const std::vector<std::vector<int>>& lower) {
   column_begin_[nb] = static_cast<int>(row_.size());
   values_.assign(row_.size(), Eigen::Matrix3d::Zero());
   inverse_diagonal_.assign(nb, Eigen::Matrix3d::Identity());
-  position_.assign(nb, 0);
   cursor_.assign(nb, 0);
   head_.assign(nb, -1);
   next_.assign(nb, -1);
@@ -43,13 +42,14 @@ void BlockCholesky::analyze(const std::vector<std::vector<int>>& lower) {
   // The update plan: factorize()'s traversal, recording the slot each
   // update writes to (saves two dependent lookups per 3x3 update).
   update_target_.clear();
+  std::vector<int> position(nb, 0);
   for (int k = 0; k < nb; ++k) {
     const int begin = column_begin_[k], end = column_begin_[k + 1];
-    for (int p = begin; p < end; ++p) position_[row_[p]] = p;
+    for (int p = begin; p < end; ++p) position[row_[p]] = p;
     for (int j = head_[k]; j != -1;) {
       const int next_j = next_[j];
       const int pj = cursor_[j], end_j = column_begin_[j + 1];
-      for (int p = pj; p < end_j; ++p) update_target_.push_back(position_[row_[p]]);
+      for (int p = pj; p < end_j; ++p) update_target_.push_back(position[row_[p]]);
       wait_at_next_row(j, pj + 1);
       j = next_j;
     }

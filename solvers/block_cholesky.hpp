@@ -34,7 +34,6 @@ class BlockCholesky {
   // pattern's size: slots[i] = slot(blocks[i].first, blocks[i].second).
   std::vector<int> slots(const std::vector<std::pair<int, int>>& blocks) const;
   Eigen::Matrix3d& block(int slot) { return values_[slot]; }
-  double* data(int slot) { return values_[slot].data(); }
   void set_zero();
 
   // In place; false when a pivot block is not positive definite (the
@@ -53,7 +52,7 @@ class BlockCholesky {
   std::vector<Eigen::Matrix3d> values_;
   std::vector<Eigen::Matrix3d> inverse_diagonal_;  // L_kk^{-1}
   // Factorization workspace (sized once).
-  std::vector<int> position_, cursor_, head_, next_;
+  std::vector<int> cursor_, head_, next_;
   std::vector<int> update_target_;  // per 3x3 update, in factorize()'s order: the slot it writes
 };
 
