@@ -464,10 +464,12 @@ StressQpResult StressQp::solve() {
     const double hi = q.m == m ? q.upper[e] : kInf;
     start[e] = hi == kInf ? f0 : (lo == -kInf ? -f0 : 0.5 * (lo + hi));
   }
-  return solve(start);
+  return solve_from(start, false);
 }
 
-StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
+StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) { return solve_from(sigma0, true); }
+
+StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_start) {
   const SparseMatrix& A = eq_.A();
   Impl& q = *impl_;
   StressQpResult result;
@@ -491,9 +493,11 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
   auto gradient_scale = [&](const Eigen::VectorXd& x) {
     return std::max({q.f0, x.lpNorm<Eigen::Infinity>(), fg_max});
   };
-  // The regulariser's centre: the origin (the paper's smallest forces) until
+  // The regulariser's centre: the origin (the paper's smallest forces) or,
+  // with options_.proximal and a usable warm start, the projected warm start;
   // an interior-point phase moves it (below).
-  q.center.setZero(m);
+  if (options_.proximal && warm_start && sigma0.size() == m && sigma0.allFinite()) q.center = q.s;
+  else q.center.setZero(m);
   // r = A s + f_g and g = A^T r + w^2 c (c^T s - t) + mu_term (s - centre).
   auto evaluate = [&](const Eigen::VectorXd& x, double mu_term) {
     q.residual(A, fg, x, q.r);
@@ -674,6 +678,15 @@ StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) {
       last_step_exact = !q.held[i] || q.trial[i] <= q.lower[i] || q.trial[i] >= q.upper[i];
     q.s = q.trial;
     ++result.iterations;
+  }
+
+  // An unsettled solve returns its best point, not its last (a non-monotone
+  // step or the interior-point phase may have left a worse one).
+  if (ok && !settled && std::isfinite(best_objective) && q.best_s.size() == m) {
+    evaluate(q.s, q.mu);
+    const double last = 0.5 * (q.r.squaredNorm() + q.w2 * std::pow(q.c.dot(q.s) - q.target, 2) +
+                               q.mu * (q.s - q.center).squaredNorm());
+    if (best_objective < last) q.s = q.best_s;
   }
 
   // Polish on the final free set (the forces not at a bound): iterated

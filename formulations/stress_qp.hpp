@@ -72,6 +72,14 @@ struct StressQpOptions {
   double optimality_tolerance = 1e-13;
   int max_polish_steps = 30;         // iterated-Tikhonov steps on the final free set (stops when
                                      // the residual falls by less than 1 % in a step)
+  // Centre the mu term on the (projected) warm start instead of the origin:
+  // among equally good forces, those closest to the warm start. On
+  // near-mechanisms the pull towards the origin moves many forces along
+  // near-null directions of A at every solve; centred on the warm start, a
+  // re-solve after a small geometry change only corrects the residual
+  // (alternating.hpp: the faithful scheme converges on puppy and scorpion).
+  // No effect on a cold start.
+  bool proximal = false;
   // After this many projected-Newton iterations without settling, one
   // Mehrotra interior-point phase (see stress_qp.cpp); negative: never.
   int interior_point_after = 20;
@@ -119,6 +127,7 @@ class StressQp {
 
  private:
   struct Impl;
+  StressQpResult solve_from(const Eigen::VectorXd& sigma0, bool warm_start);
   const Equilibrium& eq_;
   ForceScale scale_;
   StressQpOptions options_;

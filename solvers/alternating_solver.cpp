@@ -37,7 +37,7 @@ class PartSolve {
         length_scale_(part.mean_element_length()),
         scale_(make_force_scale(part, alt.margin > 0.0 ? alt.margin : options.margin_fraction)),
         eq_(part),
-        qp_options_(make_qp_options(alt)),
+        qp_options_(make_qp_options(alt, gauss_newton)),
         qp_(eq_, scale_, qp_options_),
         measure_(eq_, scale_, qp_options_.normalisation_weight) {
     eq_.set_positions(part.positions);
@@ -67,9 +67,10 @@ class PartSolve {
   bool restartable() const { return restartable_; }
 
  private:
-  static StressQpOptions make_qp_options(const AlternatingOptions& alt) {
+  static StressQpOptions make_qp_options(const AlternatingOptions& alt, bool gauss_newton) {
     StressQpOptions o;
     o.mu = alt.mu;
+    o.proximal = !gauss_newton && alt.qp_proximal;
     return o;
   }
 
@@ -134,6 +135,11 @@ void PartSolve::faithful_phase() {
   const double length = length_scale_;
   q_start_ = q_;
   double budget = alt_.gamma * length;
+  const bool sdc = alt_.step_length == FaithfulStepLength::Sdc;
+  const int cycle = alt_.sdc_cauchy_steps + alt_.sdc_constant_steps;
+  // Step lengths along -g (x -= alpha g): the Cauchy step of the previous
+  // step and the SDC cycle's constant (Yuan) step.
+  double cauchy_previous = 0.0, gradient_norm_previous = 0.0, yuan = 0.0;
   for (int i = 0; budget > 0.0 && i < alt_.i_max; ++i) {
     // J is symmetric: g = J^T f = J f and J d = -J g / |g|, two matrix-free
     // products at the geometry the line search left in eq_ (J is never assembled).
@@ -142,22 +148,45 @@ void PartSolve::faithful_phase() {
     if (!(gradient_norm > 0.0) || !std::isfinite(gradient_norm)) break;
     d_ = g_ * (-1.0 / gradient_norm);  // Eq. 6 with the descent sign: dx = gamma_acc * d
     eq_.jacobian_positions_product(sigma_, g_, jd_);
+    // d(|f|^2)/ds = 2 f^T J d = -2 |g|: the linearised minimiser along d is
+    // |g| / |J d|^2 (the Cauchy step, s = alpha |g|).
     const double curvature = jd_.squaredNorm() / (gradient_norm * gradient_norm);
-    // d(|f|^2)/ds = 2 f^T J d = -2 |g|: the linearised minimiser is |g| / |J d|^2.
-    double step = budget;
-    if (curvature > 0.0) step = std::min(step, gradient_norm / curvature);
+    const double cauchy = curvature > 0.0 ? 1.0 / curvature : kInfinity;
+    double first_trial = 0.0;  // an SDC constant step, tried before the Cauchy step
+    if (sdc) {
+      const int position = i % cycle;
+      if (position >= alt_.sdc_cauchy_steps) first_trial = yuan;
+      if (position == alt_.sdc_cauchy_steps - 1 && cauchy_previous > 0.0 && std::isfinite(cauchy_previous) &&
+          std::isfinite(cauchy)) {
+        // Yuan's step from the last two Cauchy steps (De Asmundis et al. 2014, SDC).
+        const double a = 1.0 / cauchy_previous, b = 1.0 / cauchy;
+        const double ratio = gradient_norm / (cauchy_previous * gradient_norm_previous);
+        yuan = 2.0 / (std::sqrt((a - b) * (a - b) + 4.0 * ratio * ratio) + a + b);
+      }
+    }
+    cauchy_previous = cauchy;
+    gradient_norm_previous = gradient_norm;
+    auto sufficient_decrease = [&](double step, double phi_trial) {
+      return phi_trial <= phi_ - 1e-4 * 2.0 * step * gradient_norm;  // Armijo
+    };
     bool accepted = false;
-    double phi_trial = phi_;
-    for (int halving = 0; halving < 60; ++halving) {
+    double step = 0.0, phi_trial = phi_;
+    if (first_trial > 0.0 && std::isfinite(first_trial)) {
+      step = std::min(budget, first_trial * gradient_norm);
       q_trial_ = q_ + step * d_;
       eq_.set_free_coordinates(q_trial_);
       ++evaluations_;
       phi_trial = objective(sigma_, f_trial_);
-      if (phi_trial <= phi_ - 1e-4 * 2.0 * step * gradient_norm) {
-        accepted = true;
-        break;
-      }
-      step *= 0.5;
+      accepted = sufficient_decrease(step, phi_trial);
+    }
+    if (!accepted) step = curvature > 0.0 ? std::min(budget, gradient_norm / curvature) : budget;
+    for (int halving = 0; !accepted && halving < 60; ++halving) {
+      q_trial_ = q_ + step * d_;
+      eq_.set_free_coordinates(q_trial_);
+      ++evaluations_;
+      phi_trial = objective(sigma_, f_trial_);
+      accepted = sufficient_decrease(step, phi_trial);
+      if (!accepted) step *= 0.5;
     }
     if (!accepted) {
       eq_.set_free_coordinates(q_);
@@ -414,6 +443,13 @@ AlternatingOptions read_alternating_options(const SolveOptions& options, bool ga
   } else {
     o.gamma = reader.number("gamma", o.gamma, 0.0);
     o.i_max = reader.integer("i_max", o.i_max, 1);
+    const std::string rule = reader.text("step_length", o.step_length == FaithfulStepLength::Sdc ? "sdc" : "cauchy");
+    if (rule != "sdc" && rule != "cauchy")
+      throw InputError("command line", "--option step_length", "must be sdc or cauchy, not '" + rule + "'");
+    o.step_length = rule == "sdc" ? FaithfulStepLength::Sdc : FaithfulStepLength::Cauchy;
+    o.sdc_cauchy_steps = reader.integer("sdc_cauchy_steps", o.sdc_cauchy_steps, 2);
+    o.sdc_constant_steps = reader.integer("sdc_constant_steps", o.sdc_constant_steps, 1);
+    o.qp_proximal = reader.boolean("qp_proximal", o.qp_proximal);
   }
   reader.reject_unknown(gauss_newton ? "alternating-gn" : "alternating");
   return o;

@@ -10,26 +10,34 @@
 //
 // "alternating" (faithful): the position phase is Algorithm 1's inner loop.
 //   With a distance budget gamma_acc = gamma, at most i_max steps along Eq. 6,
-//   dx = gamma * d, d = -g / |g|, g = (df/dx)^T f (the descent sign), each step
-//   length s found by a line search on Eq. 4's objective at fixed sigma: first
-//   trial the minimiser of the linearised |f + s J d|^2, capped by gamma_acc,
-//   then halving until the Armijo condition holds; gamma_acc -= s.
+//   dx = s d, d = -g / |g|, g = (df/dx)^T f (the descent sign), each step
+//   length s found by a line search on Eq. 4's objective at fixed sigma that
+//   accepts only an Armijo decrease, capped by gamma_acc; gamma_acc -= s.
 //   g and J d are two matrix-free products per step (J is symmetric, so
 //   g = J f and J d = -J g / |g|; Equilibrium::jacobian_positions_product) at
-//   the geometry the accepted trial left in Equilibrium: J is never assembled
-//   (tower 80/500, 2000 outer iterations: 6.4 s -> 4.3-4.8 s, same iterates up
-//   to rounding). The first trial is accepted at every step on the characters
-//   and towers (51 evaluations per outer iteration), so an exact line search
-//   along d would not change the iterates. The defaults gamma = 0.05,
-//   i_max = 50 were kept after a sweep: on tests/alternating_solver_test.cpp's
-//   166 grid scenes every gamma in 0.02..0.5 with i_max 50..1000 converges
-//   (i_max = 20 loses one); at 15 % noise (500 outer iterations) 59/80
-//   converge, 65 with gamma = 0.5, 71 with gamma = 0.2, i_max = 1000 (6x the
-//   time); on the characters and towers at 1 % noise no pair up to (0.5, 1000)
-//   converges within 20 s, because the budget is not their limit: steepest
-//   descent at fixed sigma crawls (duck: cond(J) ~ 7e3 while one Gauss-Newton
-//   step of 6e-5 L would finish) and the stress QP stops at its iteration cap
-//   on puppy, scorpion and the gravity tower (docs/ROBUSTNESS.md).
+//   the geometry the accepted trial left in Equilibrium: J is never assembled.
+//
+//   Step lengths (the paper leaves the line search open): step_length = sdc
+//   (default) is the monotone SDC rule of De Asmundis, di Serafino, Hager,
+//   Toraldo and Zhang (2014): in cycles of sdc_cauchy_steps + sdc_constant_steps
+//   steps, the first are Cauchy steps (the minimiser of the linearised
+//   |f + s J d|^2, then halving until Armijo holds) and the rest first try
+//   Yuan's step computed from the last two Cauchy steps, falling back to the
+//   Cauchy step when it does not give the Armijo decrease. Cauchy steps alone
+//   (step_length = cauchy) zigzag: steepest descent at fixed sigma converges
+//   at the rate of cond(J)^2, and Yuan's step breaks the zigzag. Measured on
+//   tests/alternating_solver_test.cpp's prism grids (80 scenes each, 2000
+//   outer iterations, 1 % / 5 % / 15 % noise): cauchy 80 / 80 / 61 converge
+//   in 0.08 / 0.10 / 2.5 s; sdc with gamma = 0.1, i_max = 100 80 / 80 / 76 in
+//   0.05 / 0.06 / 0.9 s, moving the nodes 4-8 % further at 1-5 % noise
+//   (geometric mean); sdc with the old gamma = 0.05, i_max = 50 reaches
+//   only 73 at 15 %, and gamma = 0.2 or 0.5 reach 76 with 10-20 % larger
+//   changes. The four left at 15 % stall at local minima of Eq. 4 (prism-10
+//   seeds 10151, 10152, 10154 and prism-12 seed 12153: relative residual
+//   1e-6 .. 1.3e-4 where the position gradient vanishes and the stress QP
+//   cannot lower it; Ipopt fails on 10151 too). On the characters and towers the position steps are
+//   not the only limit: the stress QP stops at its iteration cap on puppy,
+//   scorpion and the gravity tower (docs/ROBUSTNESS.md).
 //
 // "alternating-gn": the position phase is one damped Gauss-Newton
 //   (Levenberg-Marquardt) step. By default it is a joint step in z = (q, sigma)
@@ -78,10 +86,17 @@
 
 namespace tensegrity {
 
+// The faithful variant's line-search rule (see above).
+enum class FaithfulStepLength { Cauchy, Sdc };
+
 struct AlternatingOptions {
   // Faithful variant (Algorithm 1).
-  double gamma = 0.05;           // distance budget per outer iteration, in units of L
-  int i_max = 50;                // inner gradient steps per outer iteration
+  double gamma = 0.1;            // distance budget per outer iteration, in units of L
+  int i_max = 100;               // inner gradient steps per outer iteration
+  FaithfulStepLength step_length = FaithfulStepLength::Sdc;
+  int sdc_cauchy_steps = 4;      // SDC cycle: Cauchy steps (>= 2: Yuan's step needs two) ...
+  int sdc_constant_steps = 4;    // ... then steps that try Yuan's step (>= 1)
+  bool qp_proximal = true;       // warm stress solves centre mu on the previous forces (StressQpOptions::proximal)
   // Both variants.
   double epsilon_cvg = 1e-12;    // stall: outer position update below this (units of L)
   double mu = 1e-10;             // stress QP regulariser (StressQpOptions::mu)
@@ -101,7 +116,8 @@ struct AlternatingOptions {
   InteriorGaussNewtonOptions interior;
 };
 
-// Reads the backend options ("gamma", "i_max", "epsilon_cvg", "mu", "margin";
+// Reads the backend options ("gamma", "i_max", "step_length" (sdc|cauchy),
+// "sdc_cauchy_steps", "sdc_constant_steps", "epsilon_cvg", "mu", "margin";
 // with gauss_newton also "max_step", "sigma_weight", "lambda", "qp_every_step",
 // "qp_on_crossing", "move_bound_forces", "anchor", "restarts", and for the
 // interior attempt "interior_iterations", "interior_force_weight",
