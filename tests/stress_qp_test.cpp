@@ -271,6 +271,48 @@ TEST(StressQp, WarmStartAfterSmallGeometryChange) {
   }
 }
 
+// Two identical cables between the same nodes share their force in any split:
+// the mu term alone picks it. Centred on the origin it is the even split; with
+// `proximal` a warm solve keeps the warm start's split (the direction (1, -1)
+// on the pair is exactly null in A), after a geometry change too, and the
+// residual is the same either way.
+TEST(StressQp, ProximalWarmSolveKeepsTheWarmStartAmongEquallyGoodForces) {
+  PrismParameters p;
+  p.n = 4;
+  Structure s = make_regular_prism(p);
+  const int first = p.n;  // a vertical cable
+  const int second = static_cast<int>(s.elements.size());
+  s.elements.push_back(s.elements[first]);
+  Equilibrium eq(s);
+  const ForceScale scale = make_force_scale(s);
+  StressQp plain(eq, scale);
+  const StressQpResult cold = plain.solve();
+  ASSERT_TRUE(cold.optimal);
+  const double pair = cold.sigma[first] + cold.sigma[second];
+  EXPECT_NEAR(cold.sigma[first], cold.sigma[second], 1e-6 * pair);
+
+  Eigen::VectorXd uneven = cold.sigma;
+  uneven[first] = 0.75 * pair;
+  uneven[second] = 0.25 * pair;
+  Eigen::Matrix3Xd x = s.positions;
+  x(0, 0) += 1e-3 * s.mean_element_length();  // no longer a tensegrity
+  eq.set_positions(x);
+  StressQpOptions options;
+  options.proximal = true;
+  StressQp proximal(eq, scale, options);
+  const StressQpResult kept = proximal.solve(uneven);
+  const StressQpResult even = plain.solve(uneven);
+  ASSERT_TRUE(kept.optimal);
+  ASSERT_TRUE(even.optimal);
+  EXPECT_NEAR(kept.sigma[first] - kept.sigma[second], 0.5 * pair, 1e-6 * pair);
+  EXPECT_NEAR(even.sigma[first] - even.sigma[second], 0.0, 1e-6 * pair);
+  EXPECT_NEAR(kept.objective, even.objective, 1e-9 * even.objective + 1e-24);
+  EXPECT_GT(even.objective, 1e-12);  // the moved node leaves a residual
+  // A cold solve ignores `proximal`: the even split again.
+  const StressQpResult cold_proximal = proximal.solve();
+  EXPECT_NEAR(cold_proximal.sigma[first], cold_proximal.sigma[second], 1e-6 * pair);
+}
+
 // A random element set on random nodes (some fixed, with gravity) gives a
 // random sparse A with unit columns; random two-sided / one-sided / absent
 // bounds and a random normalisation row make a generic bounded least-squares
