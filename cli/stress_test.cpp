@@ -396,6 +396,7 @@ StressReport run_stress_test(const StressTestOptions& options) {
   SolveOptions solve_options;
   solve_options.tolerance = options.tolerance;
   solve_options.time_limit_s = options.time_limit_s;
+  solve_options.backend_options = options.backend_options;
   std::string why;
   if (!solve_options.IsValid(&why)) throw InputError("command line", "options", why);
   for (const std::string& name : solvers) make_solver(name)->check_options(solve_options);
@@ -587,6 +588,7 @@ json stress_report_to_json(const StressReport& report) {
   opts["seed"] = o.seed;
   opts["time_limit_s"] = o.time_limit_s;
   opts["tolerance"] = o.tolerance;
+  if (!o.backend_options.empty()) opts["backend_options"] = o.backend_options;
   if (times) opts["jobs"] = o.jobs;
   j["options"] = opts;
 

@@ -74,6 +74,9 @@ struct StressTestOptions {
   int jobs = 2;
   double time_limit_s = 20.0;         // per solve
   double tolerance = 1e-8;
+  // Backend options (`--option key=value`) given to every solver of the run;
+  // each solver must accept them all (InputError otherwise).
+  std::map<std::string, std::string> backend_options;
   std::string data_dir;               // holds characters/
   bool with_times = true;             // false: the report holds no timings (bit-identical runs)
   std::vector<std::string> scene_files;  // extra scenes read from files

@@ -13,6 +13,7 @@
 #include <memory>
 
 #include "cli/commands.hpp"
+#include "cli/output.hpp"
 #include "cli/stress_test.hpp"
 #include "model/errors.hpp"
 #include "model/json_text.hpp"
@@ -23,7 +24,7 @@ namespace tensegrity::cli {
 namespace {
 
 struct StressArgs {
-  std::vector<std::string> scenes, solvers, families, scene_files;
+  std::vector<std::string> scenes, solvers, families, scene_files, options;
   int trials = 2;
   std::uint64_t seed = 1;
   int jobs = 2;
@@ -97,6 +98,8 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--jobs", args->jobs, "Threads solving in parallel")->check(CLI::Range(1, 256));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget per solve (s)");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged`");
+  cmd->add_option("--option", args->options,
+                  "Backend option key=value for every solver of the run (repeatable; each must accept it)");
   cmd->add_option("--data", args->data, "Data folder holding characters/ (default ./data or beside the program)");
   cmd->add_option("--save-failures", args->failures_dir,
                   "Write the scene of every failed trial into this (existing) folder, to reproduce it");
@@ -116,6 +119,7 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
       o.jobs = args->jobs;
       o.time_limit_s = args->time_limit;
       o.tolerance = args->tol;
+      o.backend_options = parse_key_values(args->options);
       o.data_dir = find_data_dir(args->data);
       o.with_times = !args->no_times;
       if (!args->failures_dir.empty()) {

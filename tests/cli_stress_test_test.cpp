@@ -124,4 +124,37 @@ TEST_F(StressTestCommand, RejectsUnknownNames) {
   }
 }
 
+// `--option key=value` reaches every solver of the run: an option the solver
+// does not know is bad input (exit 2, no report), a known one is recorded in
+// the report and changes the solves (a one-step outer budget cannot converge
+// on a perturbed prism, the default can).
+TEST_F(StressTestCommand, BackendOptionsReachEverySolver) {
+  const fs::path out = dir_ / "r.json";
+  auto stress = [&](const std::vector<std::string>& extra) {
+    std::vector<std::string> args = {"stress-test", "--scenes", "prism-3", "--families", "noise", "--trials", "1",
+                                     "--solvers", "alternating", "--jobs", "1", "--no-times", "--quiet",
+                                     "--out", out.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run(args, dir_ / "err");
+  };
+  EXPECT_EQ(stress({"--option", "no_such_option=1"}), 2);
+  EXPECT_NE(read_text(dir_ / "err").find("no_such_option"), std::string::npos) << read_text(dir_ / "err");
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(stress({"--option", "i_max=0"}), 2);  // out of range for the solver
+  EXPECT_FALSE(fs::exists(out));
+
+  ASSERT_EQ(stress({"--option", "step_length=sdc"}), 0) << read_text(dir_ / "err");
+  const json with_sdc = json::parse(read_text(out));
+  EXPECT_EQ(with_sdc["options"]["backend_options"]["step_length"], "sdc");
+  ASSERT_EQ(stress({}), 0) << read_text(dir_ / "err");
+  const json plain = json::parse(read_text(out));
+  EXPECT_FALSE(plain["options"].contains("backend_options"));
+  const auto converged = [](const json& r) {
+    return r["solvers"]["alternating"]["families"]["noise"]["by_level"]["0.001"]["converged"].get<int>();
+  };
+  EXPECT_EQ(converged(plain), 1);
+  ASSERT_EQ(stress({"--option", "gamma=1e-12", "--option", "i_max=1"}), 0) << read_text(dir_ / "err");
+  EXPECT_EQ(converged(json::parse(read_text(out))), 0);
+}
+
 }  // namespace
