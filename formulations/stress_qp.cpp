@@ -506,6 +506,13 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
     q.g += (q.w2 * e) * q.c + mu_term * (x - q.center);
   };
 
+  // Half the regularised objective at x; leaves q.r and q.g evaluated there.
+  auto regularised_objective = [&](const Eigen::VectorXd& x) {
+    evaluate(x, q.mu);
+    return 0.5 * (q.r.squaredNorm() + q.w2 * std::pow(q.c.dot(x) - q.target, 2) +
+                  q.mu * (x - q.center).squaredNorm());
+  };
+
   bool ok = options_.IsValid() && q.refresh(A) && (fg == nullptr || std::isfinite(fg_max));
   bool settled = false;
   bool last_step_exact = false;
@@ -536,9 +543,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
       nonmonotone_left = 8;
       last_step_exact = false;
     }
-    evaluate(q.s, q.mu);
-    const double objective = 0.5 * (q.r.squaredNorm() + q.w2 * std::pow(q.c.dot(q.s) - q.target, 2) +
-                                    q.mu * (q.s - q.center).squaredNorm());
+    const double objective = regularised_objective(q.s);
     const bool record = objective < best_objective;
     if (record) {
       best_objective = objective;
@@ -680,14 +685,12 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
     ++result.iterations;
   }
 
-  // An unsettled solve returns its best point, not its last (a non-monotone
-  // step or the interior-point phase may have left a worse one).
-  if (ok && !settled && std::isfinite(best_objective) && q.best_s.size() == m) {
-    evaluate(q.s, q.mu);
-    const double last = 0.5 * (q.r.squaredNorm() + q.w2 * std::pow(q.c.dot(q.s) - q.target, 2) +
-                               q.mu * (q.s - q.center).squaredNorm());
-    if (best_objective < last) q.s = q.best_s;
-  }
+  // An unsettled solve (iteration cap) returns the best point visited since
+  // the last change of the centre, not its last one, which a non-monotone
+  // step may have left worse.
+  if (ok && !settled && std::isfinite(best_objective) && q.best_s.size() == m &&
+      best_objective < regularised_objective(q.s))
+    q.s = q.best_s;
 
   // Polish on the final free set (the forces not at a bound): iterated
   // Tikhonov steps remove the mu bias from the residual.

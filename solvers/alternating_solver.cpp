@@ -155,6 +155,7 @@ void PartSolve::faithful_phase() {
     double first_trial = 0.0;  // an SDC constant step, tried before the Cauchy step
     if (sdc) {
       const int position = i % cycle;
+      if (position == 0) yuan = 0.0;  // a cycle never reuses the previous cycle's step
       if (position >= alt_.sdc_cauchy_steps) first_trial = yuan;
       if (position == alt_.sdc_cauchy_steps - 1 && cauchy_previous > 0.0 && std::isfinite(cauchy_previous) &&
           std::isfinite(cauchy)) {
@@ -166,26 +167,24 @@ void PartSolve::faithful_phase() {
     }
     cauchy_previous = cauchy;
     gradient_norm_previous = gradient_norm;
-    auto sufficient_decrease = [&](double step, double phi_trial) {
-      return phi_trial <= phi_ - 1e-4 * 2.0 * step * gradient_norm;  // Armijo
-    };
-    bool accepted = false;
-    double step = 0.0, phi_trial = phi_;
-    if (first_trial > 0.0 && std::isfinite(first_trial)) {
-      step = std::min(budget, first_trial * gradient_norm);
+    double phi_trial = phi_;
+    // Moves to q + step d (in eq_ too) and tests Armijo on Eq. 4's objective.
+    auto try_step_length = [&](double step) {
       q_trial_ = q_ + step * d_;
       eq_.set_free_coordinates(q_trial_);
       ++evaluations_;
       phi_trial = objective(sigma_, f_trial_);
-      accepted = sufficient_decrease(step, phi_trial);
+      return phi_trial <= phi_ - 1e-4 * 2.0 * step * gradient_norm;
+    };
+    bool accepted = false;
+    double step = 0.0;
+    if (first_trial > 0.0 && std::isfinite(first_trial)) {
+      step = std::min(budget, first_trial * gradient_norm);
+      accepted = try_step_length(step);
     }
     if (!accepted) step = curvature > 0.0 ? std::min(budget, gradient_norm / curvature) : budget;
     for (int halving = 0; !accepted && halving < 60; ++halving) {
-      q_trial_ = q_ + step * d_;
-      eq_.set_free_coordinates(q_trial_);
-      ++evaluations_;
-      phi_trial = objective(sigma_, f_trial_);
-      accepted = sufficient_decrease(step, phi_trial);
+      accepted = try_step_length(step);
       if (!accepted) step *= 0.5;
     }
     if (!accepted) {
@@ -449,6 +448,8 @@ AlternatingOptions read_alternating_options(const SolveOptions& options, bool ga
     o.step_length = rule == "sdc" ? FaithfulStepLength::Sdc : FaithfulStepLength::Cauchy;
     o.sdc_cauchy_steps = reader.integer("sdc_cauchy_steps", o.sdc_cauchy_steps, 2);
     o.sdc_constant_steps = reader.integer("sdc_constant_steps", o.sdc_constant_steps, 1);
+    if (o.sdc_cauchy_steps > 10000 || o.sdc_constant_steps > 10000)
+      throw InputError("command line", "--option sdc_*", "sdc_cauchy_steps and sdc_constant_steps must be <= 10000");
     o.qp_proximal = reader.boolean("qp_proximal", o.qp_proximal);
   }
   reader.reject_unknown(gauss_newton ? "alternating-gn" : "alternating");

@@ -25,7 +25,10 @@
 //   sdc_cauchy_steps + sdc_constant_steps steps, the first are Cauchy steps
 //   and the rest first try Yuan's step computed from the last two Cauchy
 //   steps (falling back to the Cauchy step when it misses the Armijo
-//   decrease), which breaks steepest descent's zigzag. SDC converges in about
+//   decrease), which breaks steepest descent's zigzag. (The paper's SDC
+//   computes Yuan's step at the first constant step, from that step's and the
+//   previous Cauchy step; here it comes from the last two steps of the Cauchy
+//   phase, so that phase needs at least two steps.) SDC converges in about
 //   half the outer iterations and on more strongly perturbed scenes, but it
 //   travels further along the flat directions of a near-mechanism: on the
 //   perturbed octahedra of tests/backend_suite_test.cpp, with gamma = 0.1
@@ -47,8 +50,9 @@
 //   many forces along near-null directions of A at every warm solve, so the
 //   QP ran into its 100-iteration cap with its active set changing and the
 //   forces Algorithm 1 worked with were not Eq. 4's minimisers. Centred on
-//   the previous forces, the first solve still picks the smallest forces and
-//   later ones only correct the residual. With it the faithful scheme
+//   the previous forces, the first solve still picks the smallest forces
+//   (cold, or warm from the driver's forces, which its own cold solve
+//   picked; then centred on them) and later ones only correct the residual. With it the faithful scheme
 //   converges on the perturbed characters (docs/ROBUSTNESS.md); without it
 //   duck and puppy ended at relative residual 1e-7 .. 1e-4 after 2000 outer
 //   iterations and scorpion never got below 1e-5 in 20 s. On the 80/500
@@ -133,7 +137,8 @@ struct AlternatingOptions {
 };
 
 // Reads the backend options ("gamma", "i_max", "step_length" (sdc|cauchy),
-// "sdc_cauchy_steps", "sdc_constant_steps", "epsilon_cvg", "mu", "margin";
+// "sdc_cauchy_steps", "sdc_constant_steps", "qp_proximal", "epsilon_cvg",
+// "mu", "margin";
 // with gauss_newton also "max_step", "sigma_weight", "lambda", "qp_every_step",
 // "qp_on_crossing", "move_bound_forces", "anchor", "restarts", and for the
 // interior attempt "interior_iterations", "interior_force_weight",

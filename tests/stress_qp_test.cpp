@@ -308,9 +308,19 @@ TEST(StressQp, ProximalWarmSolveKeepsTheWarmStartAmongEquallyGoodForces) {
   EXPECT_NEAR(even.sigma[first] - even.sigma[second], 0.0, 1e-6 * pair);
   EXPECT_NEAR(kept.objective, even.objective, 1e-9 * even.objective + 1e-24);
   EXPECT_GT(even.objective, 1e-12);  // the moved node leaves a residual
-  // A cold solve ignores `proximal`: the even split again.
-  const StressQpResult cold_proximal = proximal.solve();
-  EXPECT_NEAR(cold_proximal.sigma[first], cold_proximal.sigma[second], 1e-6 * pair);
+  // A cold solve ignores `proximal`. Checked where the cold start (+F0 on
+  // cables, -F0 on struts) is uneven along null directions of A: a strut on
+  // the doubled cable's nodes makes three equal columns; centred on that
+  // start, the strut would keep about -F0 instead of its margin.
+  Structure with_strut = s;
+  with_strut.elements.push_back(s.elements[first]);
+  with_strut.elements.back().kind = ElementKind::Strut;
+  Equilibrium eq3(with_strut);
+  const ForceScale scale3 = make_force_scale(with_strut);
+  StressQp plain3(eq3, scale3), proximal3(eq3, scale3, options);
+  const StressQpResult a = plain3.solve(), b = proximal3.solve();
+  ASSERT_TRUE(a.optimal);
+  EXPECT_LE((a.sigma - b.sigma).lpNorm<Eigen::Infinity>(), 1e-12 * a.sigma.lpNorm<Eigen::Infinity>());
 }
 
 // A random element set on random nodes (some fixed, with gravity) gives a
