@@ -11,6 +11,7 @@
 #include "model/reference_scenes.hpp"
 #include "model/verify.hpp"
 #include "solvers/stiffness_solver.hpp"
+#include "tests/simulation_fixtures.hpp"
 
 namespace tensegrity {
 namespace {
@@ -25,9 +26,7 @@ CableMaterial linear_material(double k, double lo, double hi) {
   return m;
 }
 
-CableMaterial shipped(const std::string& name) {
-  return read_material_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/materials/" + name + ".json");
-}
+using testing::shipped_material;
 
 TEST(StrainForForce, LinearMaterialMatchesTheClosedForm) {
   const CableMaterial m = linear_material(5.0, 0.0, 2.0);
@@ -57,7 +56,7 @@ TEST(StrainForForce, CubicMaterialMatchesTheClosedForm) {
 }
 
 TEST(StrainForForce, ShippedMaterialInvertsEveryForceInItsRange) {
-  const CableMaterial m = shipped("elastic-cord-1mm");
+  const CableMaterial m = shipped_material("elastic-cord-1mm");
   for (int i = 0; i <= 200; ++i) {
     const double eps = m.strain_min + (m.strain_max - m.strain_min) * i / 200.0;
     const double F = m.force(eps);
@@ -117,7 +116,7 @@ void expect_round_trip(const Structure& s, const Eigen::VectorXd& forces, const 
 }
 
 TEST(RestLengths, RoundTripOnAPrismInSelfStress) {
-  const CableMaterial m = shipped("elastic-cord-1mm");
+  const CableMaterial m = shipped_material("elastic-cord-1mm");
   const Structure s = prism_scene();
   expect_round_trip(s, designed_forces(s, m, 0.3), m);
 }
@@ -132,7 +131,7 @@ TEST(RestLengths, RoundTripUnderGravityWithFixedBottomNodes) {
   p.strut_mass = 0.01;
   p.cable_mass = 0.0005;
   const Structure s = make_expandable_octahedron(p);
-  const CableMaterial m = shipped("elastic-cord-2mm");
+  const CableMaterial m = shipped_material("elastic-cord-2mm");
   expect_round_trip(s, designed_forces(s, m, 0.25), m);
 }
 

@@ -16,7 +16,12 @@
 namespace tensegrity::testing {
 
 inline CableMaterial shipped_material(const std::string& name) {
-  return read_material_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/materials/" + name + ".json");
+  // Built by appending: GCC 12 warns falsely (-Warray-bounds, -Wstringop-overflow)
+  // on chains of operator+ on string temporaries once the tests share a
+  // precompiled header (GCC bug 105651).
+  std::string path = TENSEGRITY_SOURCE_DIR;
+  path.append("/data/materials/").append(name).append(".json");
+  return read_material_file(path);
 }
 
 // Analytic prism forces: force densities struts -1, verticals 1, rings 1 / (2 sin(pi/n)).
@@ -68,8 +73,9 @@ inline std::string temp_dir(const std::string& name) {
 
 // Runs `tensegrity design INPUT ARGS --out DIR/OUT`; returns the design path ("" on failure).
 inline std::string run_design(const std::string& input, const std::string& args, const std::string& out) {
-  const std::string cmd = std::string(TENSEGRITY_BINARY) + " design " + input + " " + args + " --out " + out +
-                          " > " + out + ".log 2>&1";
+  std::string cmd = TENSEGRITY_BINARY;  // appended, not chained: see shipped_material
+  cmd.append(" design ").append(input).append(" ").append(args).append(" --out ").append(out);
+  cmd.append(" > ").append(out).append(".log 2>&1");
   return std::system(cmd.c_str()) == 0 ? out : std::string();
 }
 
