@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -139,36 +140,55 @@ TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
 // iterations (its failures spend the whole budget; 500 keep the suite fast
 // under the sanitizers; 65 with the default 2000), alternating with SDC step
 // lengths, gamma 0.1 and i_max 100 76 (2000), alternating-gn 80.
-TEST(AlternatingSolver, StronglyPerturbedPrismsMostlyConvergeAndFailCleanly) {
+struct StronglyPerturbedVariant {
+  const char* name;
+  const char* backend;
+  int max_iterations;
+  std::map<std::string, std::string> backend_options;
+  int at_least;
+};
+
+// One ctest entry per variant, so that ctest runs them on both cores (each
+// takes 15-50 s under the sanitizers).
+class StronglyPerturbedPrisms : public ::testing::TestWithParam<StronglyPerturbedVariant> {};
+
+TEST_P(StronglyPerturbedPrisms, MostlyConvergeAndFailCleanly) {
+  const StronglyPerturbedVariant& v = GetParam();
   std::vector<Case> cases = prism_grid(0.15, false);
   for (Case& c : prism_grid(0.15, true)) cases.push_back(std::move(c));
-  for (const auto& [name, at_least] : {std::pair<const char*, int>{"alternating", 60},
-                                       {"alternating with SDC steps", 74},
-                                       {"alternating-gn", 79}}) {
-    SolveOptions options;
-    const std::string backend = std::string(name).substr(0, std::string(name).find(' '));
-    if (backend == "alternating" && backend == name) options.max_iterations = 500;
-    if (backend != name) options.backend_options = {{"step_length", "sdc"}, {"gamma", "0.1"}, {"i_max", "100"}};
-    const auto solver = make_solver(backend);
-    int converged = 0;
-    std::string failures;
-    for (const Case& c : cases) {
-      const SolveResult r = solve_scene(*solver, c.scene, options);
-      EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite()) << c.name;
-      for (std::size_t k = 1; k < r.trace.size(); ++k)
-        EXPECT_LE(r.trace[k].objective, r.trace[k - 1].objective) << c.name << " trace point " << k;
-      if (r.status == Status::Converged) {
-        ++converged;
-        EXPECT_TRUE(verify(c.scene, r.positions, r.forces, 1e-8).ok) << c.name;
-      } else {
-        EXPECT_TRUE(r.status == Status::Infeasible || r.status == Status::MaxIterations) << c.name;
-        failures += "\n  " + c.name + ": " + r.message;
-      }
+  SolveOptions options;
+  options.max_iterations = v.max_iterations;
+  options.backend_options = v.backend_options;
+  const auto solver = make_solver(v.backend);
+  int converged = 0;
+  std::string failures;
+  for (const Case& c : cases) {
+    const SolveResult r = solve_scene(*solver, c.scene, options);
+    EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite()) << c.name;
+    for (std::size_t k = 1; k < r.trace.size(); ++k)
+      EXPECT_LE(r.trace[k].objective, r.trace[k - 1].objective) << c.name << " trace point " << k;
+    if (r.status == Status::Converged) {
+      ++converged;
+      EXPECT_TRUE(verify(c.scene, r.positions, r.forces, 1e-8).ok) << c.name;
+    } else {
+      EXPECT_TRUE(r.status == Status::Infeasible || r.status == Status::MaxIterations) << c.name;
+      failures += "\n  " + c.name + ": " + r.message;
     }
-    EXPECT_GE(converged, at_least) << name << " failures:" << failures;
-    std::printf("%s: %d / %zu converged at 15 %% noise%s\n", name, converged, cases.size(), failures.c_str());
   }
+  EXPECT_GE(converged, v.at_least) << v.name << " failures:" << failures;
+  std::printf("%s: %d / %zu converged at 15 %% noise%s\n", v.name, converged, cases.size(), failures.c_str());
 }
+
+INSTANTIATE_TEST_SUITE_P(
+    AlternatingSolver, StronglyPerturbedPrisms,
+    ::testing::Values(StronglyPerturbedVariant{"alternating", "alternating", 500, {}, 60},
+                      StronglyPerturbedVariant{"alternating_sdc",
+                                               "alternating",
+                                               2000,
+                                               {{"step_length", "sdc"}, {"gamma", "0.1"}, {"i_max", "100"}},
+                                               74},
+                      StronglyPerturbedVariant{"alternating_gn", "alternating-gn", 2000, {}, 79}),
+    [](const ::testing::TestParamInfo<StronglyPerturbedVariant>& info) { return std::string(info.param.name); });
 
 TEST(AlternatingSolver, PerturbedOctahedraConverge) {
   std::vector<Case> cases;
