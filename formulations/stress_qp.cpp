@@ -719,14 +719,22 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
         q.trial = q.s;
         for (int i = 0; i < m; ++i)
           if (!q.held[i]) q.s[i] = q.project(i, q.s[i] + q.d[i]);
-        const double next = residual_objective();
-        if (!(next < current)) {  // rounding level reached: keep the better point
+        // The step's exact change of the objective, 2 g.dx + |A dx|^2 +
+        // w^2 (c.dx)^2 (g: half the mu-free gradient, zero on held forces):
+        // where the residual does not vanish, the difference of two
+        // objectives is lost in their rounding and a step that removes the
+        // mu bias (~mu |sigma| / lambda_min) would be judged no better.
+        q.step = q.s - q.trial;
+        q.a_step.noalias() = A * q.step;
+        const double c_step = q.c.dot(q.step);
+        const double change = 2.0 * q.g.dot(q.step) + q.a_step.squaredNorm() + q.w2 * c_step * c_step;
+        if (!(change < 0.0)) {  // rounding level reached: keep the better point
           q.s = q.trial;
           break;
         }
         ++result.polish_steps;
-        const bool slow = next > 0.99 * current;
-        current = next;
+        const bool slow = -change < 0.01 * current;
+        current = residual_objective();
         if (slow) break;
       }
     } else {

@@ -45,7 +45,9 @@
 // interior-point phase on the same pattern (diagonal barrier terms added to
 // K) finds the optimum's neighbourhood, bounds whose slack is below their
 // multiplier are snapped (crossover), mu is re-centred on that point, and
-// projected Newton resumes. The polish is judged by the residual objective.
+// projected Newton resumes. The polish is judged by the exact change of the
+// residual objective (a difference of objectives is lost in rounding where
+// the residual does not vanish).
 //
 // Limits: where [A; w c^T] has a null space (more forces than conditions)
 // only mu picks among equally good forces, and double precision fixes that
