@@ -38,7 +38,7 @@ struct BatchArgs {
   std::string out_dir;
   int jobs = 2;
   double tol = 1e-8;
-  int max_iterations = 2000;
+  int max_iterations = 0;
   double time_limit = 120.0;
   bool no_skip = false;
   bool measure_speedup = false;
@@ -106,7 +106,7 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--jobs", args->jobs, "Scenes solved at once (threads), 1..256");
   cmd->add_option("--out-dir", args->out_dir, "Folder for the solution files")->required();
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
-  cmd->add_option("--max-iterations", args->max_iterations, "Backend iteration budget per scene");
+  cmd->add_option("--max-iterations", args->max_iterations, "Backend iteration budget per scene (default 0: the backend's own, 20000 outer iterations for alternating, 2000 for the others)");
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds per scene");
   cmd->add_flag("--no-skip", args->no_skip, "Do not return early when a scene is already in equilibrium");
   cmd->add_flag("--measure-speedup", args->measure_speedup, "First solve everything with one job, then report serial/parallel wall time");

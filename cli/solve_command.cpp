@@ -18,7 +18,7 @@ struct SolveArgs {
   std::string trace;
   std::string out_scene;
   double tol = 1e-8;
-  int max_iterations = 2000;
+  int max_iterations = 0;
   double time_limit = 120.0;
   bool verbose = false;
   bool no_skip = false;
@@ -33,7 +33,7 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--solver", args->solver, "Backend name (see `tensegrity solvers`); default: the recommended one");
   cmd->add_option("--out", args->out, "Solution file, - for standard output");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
-  cmd->add_option("--max-iterations", args->max_iterations, "Backend iteration budget");
+  cmd->add_option("--max-iterations", args->max_iterations, "Backend iteration budget (default 0: the backend's own, 20000 outer iterations for alternating, 2000 for the others)");
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds");
   cmd->add_option("--option", args->options, "Backend option key=value (repeatable)");
   cmd->add_option("--trace", args->trace, "Write the per-iteration record as CSV");

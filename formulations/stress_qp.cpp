@@ -20,6 +20,9 @@ namespace {
 using SparseMatrix = Eigen::SparseMatrix<double>;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = std::numeric_limits<double>::epsilon();
+// Rounds of pinning forces whose Newton component leaves the box (one
+// factorization each; see the projected-Newton loop).
+constexpr int kPinRounds = 5;
 
 }  // namespace
 
@@ -45,7 +48,7 @@ struct StressQp::Impl {
 
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
   bool factorization_valid = false;
-  std::vector<char> held, factored_held;  // W of the current step / of the factorization
+  std::vector<char> held, factored_held, pinned;  // W of the current step / of the factorization
 
   // Work space, sized once per topology.
   Eigen::VectorXd center;
@@ -174,6 +177,7 @@ void StressQp::Impl::build(const SparseMatrix& A, const ForceScale& scale,
   factorization_valid = false;
   held.assign(m, 0);
   factored_held.assign(m, 0);
+  pinned.assign(m, 0);
 
   for (Eigen::VectorXd* v : {&s, &g, &d, &trial, &step, &rhs, &lin_res, &op_out, &masked, &best_s})
     v->setZero(m);
@@ -522,7 +526,13 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
   // of the subproblem's minimiser predicts the new active set at once, even
   // when that point is worse), safeguarded by a return to the best point.
   double best_objective = kInf;
-  int nonmonotone_left = 8;
+  // Only a cold start takes non-monotone steps: from a warm start (or the
+  // interior-point phase's point) the optimum is near, and on degenerate
+  // scenes the projection of a full step predicts its active set badly (on
+  // the perturbed 80/500 towers the first such step raised the objective from
+  // 2e-5 to 6e3, and the solve never returned below its warm start:
+  // 80-280 factorizations for nothing).
+  int nonmonotone_left = warm_start ? 0 : 8;
   bool interior_point_used = false, stuck = false;
   for (int iteration = 0; ok; ++iteration) {
     if (!interior_point_used && options_.interior_point_after >= 0 &&
@@ -540,7 +550,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
       for (int i = 0; i < m; ++i) q.s[i] = q.project(i, std::isfinite(q.s[i]) ? q.s[i] : 0.0);
       q.center = q.s;
       best_objective = kInf;
-      nonmonotone_left = 8;
+      nonmonotone_left = warm_start ? 0 : 8;
       last_step_exact = false;
     }
     const double objective = regularised_objective(q.s);
@@ -587,6 +597,38 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
     }
     q.rhs = -q.g;
     if (!q.solve_modified(A, q.rhs, q.d)) { ok = false; break; }
+    // A force at a bound whose gradient points into the box is free, but the
+    // coupled Newton step can push it out: the projection then clips it and
+    // the step is no longer a Newton step for the others, so the iteration
+    // jams (on the 80/500 towers, warm solves crept along at a fixed
+    // projected gradient until the iteration cap: 60-100 factorizations per
+    // solve). Pin such forces at their bound and solve again on the smaller
+    // free set; at the pinned subproblem's minimiser the Newton step of a
+    // pinned force points inwards, so it is freed again if it should be.
+    bool pinned_any = false;
+    for (int round = 0; round < kPinRounds; ++round) {
+      bool changed = false;
+      for (int i = 0; i < m; ++i) {
+        if (round == 0) q.pinned[i] = 0;
+        if (q.held[i]) continue;
+        if ((q.s[i] <= q.lower[i] && q.d[i] < 0.0) || (q.s[i] >= q.upper[i] && q.d[i] > 0.0)) {
+          q.held[i] = 1;
+          q.pinned[i] = 1;
+          changed = true;
+        }
+      }
+      if (!changed) break;
+      pinned_any = true;
+      ++result.factorizations;
+      if (!q.factorize(q.held) || !q.solve_modified(A, q.rhs, q.d)) {
+        ok = false;
+        break;
+      }
+    }
+    if (!ok) break;
+    if (pinned_any)  // a held row of K gives a scaled gradient step; pinned forces stay put
+      for (int i = 0; i < m; ++i)
+        if (q.pinned[i]) q.d[i] = 0.0;
 
     // Candidate steps, judged by the exact decrease of the quadratic
     // (-g.dx - dx.N dx / 2, accurate near a non-zero minimum, unlike a

@@ -18,11 +18,16 @@
 // solves N_FF d_F = -g_F on the free set F and then takes the best (by the
 // exact decrease of the quadratic) of: the projected step P(sigma + d), an
 // Armijo backtracking along the projection arc, and d truncated at the first
-// bound it meets (always a decrease; it makes the blocking bound active). A
-// few non-monotone projected steps, taken only from a new best point and
-// safeguarded by a return to the best point, let the projection predict many
-// bound changes at once. The active set has settled when an unclipped full
-// Newton step is followed by the same W. The rank-one normalisation term is
+// bound it meets (always a decrease; it makes the blocking bound active).
+// Free forces at a bound whose Newton component points out of the box are
+// pinned there and the step is solved again on the smaller free set (else the
+// projection clips them, the step is no Newton step for the others and the
+// iteration jams). From a cold start a few non-monotone projected steps,
+// taken only from a new best point and safeguarded by a return to the best
+// point, let the projection predict many bound changes at once; warm starts
+// are monotone (near the optimum of a degenerate QP such a step is far off).
+// The active set has settled when an unclipped full Newton step is followed
+// by the same W. The rank-one normalisation term is
 // kept sparse through the quasi-definite augmented matrix
 //
 //   K = [ A^T A + mu I   c      ]      (held rows/columns replaced by N_ii e_i,

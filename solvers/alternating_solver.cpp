@@ -24,6 +24,7 @@ namespace {
 
 using SparseMatrix = Eigen::SparseMatrix<double>;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
 
 // One solve of one connected part: the state of Algorithm 1.
 class PartSolve {
@@ -33,6 +34,8 @@ class PartSolve {
         options_(options),
         alt_(alt),
         gauss_newton_(gauss_newton),
+        iteration_budget_(options.iteration_budget(gauss_newton ? kDefaultIterationBudget
+                                                                : kFaithfulIterationBudget)),
         recorder_(options.time_limit_s),
         length_scale_(part.mean_element_length()),
         scale_(make_force_scale(part, alt.margin > 0.0 ? alt.margin : options.margin_fraction)),
@@ -106,6 +109,7 @@ class PartSolve {
   const SolveOptions& options_;
   const AlternatingOptions& alt_;
   bool gauss_newton_;
+  int iteration_budget_;  // outer iterations
   TraceRecorder recorder_;
   double length_scale_;
   ForceScale scale_;
@@ -137,6 +141,10 @@ void PartSolve::faithful_phase() {
   double budget = alt_.gamma * length;
   const bool sdc = alt_.step_length == FaithfulStepLength::Sdc;
   const int cycle = alt_.sdc_cauchy_steps + alt_.sdc_constant_steps;
+  // A shorter step moves no coordinate by more than its rounding: halving
+  // further only re-evaluates the same geometry (at an equilibrium to
+  // rounding, 60 evaluations per outer iteration).
+  const double rounding_step = 4.0 * kEpsilon * (q_.lpNorm<Eigen::Infinity>() + length);
   // Step lengths along -g (x -= alpha g): the Cauchy step of the previous
   // step and the SDC cycle's constant (Yuan) step.
   double cauchy_previous = 0.0, gradient_norm_previous = 0.0, yuan = 0.0;
@@ -183,7 +191,7 @@ void PartSolve::faithful_phase() {
       accepted = try_step_length(step);
     }
     if (!accepted) step = curvature > 0.0 ? std::min(budget, gradient_norm / curvature) : budget;
-    for (int halving = 0; !accepted && halving < 60; ++halving) {
+    for (int halving = 0; !accepted && halving < 60 && step > rounding_step; ++halving) {
       accepted = try_step_length(step);
       if (!accepted) step *= 0.5;
     }
@@ -398,7 +406,7 @@ SolveResult PartSolve::run() {
       return finish(Status::Infeasible, "stalled at a local minimum of Eq. 4 with relative residual " +
                                             std::to_string(p.relative_residual));
     }
-    if (iteration >= options_.max_iterations) {
+    if (iteration >= iteration_budget_) {
       restartable_ = true;
       return finish(Status::MaxIterations, "outer iteration budget spent");
     }
@@ -497,7 +505,7 @@ SolveResult AlternatingSolver::solve_part(const Structure& part, const SolveOpti
     o.lambda *= lambdas[a];
     SolveOptions so = options;
     so.time_limit_s = options.time_limit_s - elapsed();
-    so.max_iterations = options.max_iterations - iterations;
+    so.max_iterations = options.iteration_budget(kDefaultIterationBudget) - iterations;
     if ((a > 0 || iterations > 0) && (so.time_limit_s <= 0.0 || so.max_iterations <= 0)) break;
     const double offset = elapsed();
     PartSolve solve(part, so, o, true);

@@ -106,6 +106,15 @@
 
 namespace tensegrity {
 
+// The faithful variant's outer-iteration budget when SolveOptions::max_iterations
+// is 0. Algorithm 1 itself has no cap (it stops on epsilon_cvg) and its outer
+// iterations are cheap (a warm stress QP, typically one or two
+// factorizations, and at most i_max matrix-free gradient steps), but steepest
+// descent crawls: on the perturbed characters at 3-10 % node noise the
+// faithful scheme needed up to ~8000 outer iterations (0.2-5 s), so the
+// common 2000 stopped it short. The time limit bounds it too.
+inline constexpr int kFaithfulIterationBudget = 20000;
+
 // The faithful variant's line-search rule (see above).
 enum class FaithfulStepLength { Cauchy, Sdc };
 

@@ -222,7 +222,7 @@ SolveResult InteriorSolve::run() {
     if (!std::isfinite(phi_) || !std::isfinite(rel)) return finish(Status::NumericalError, "non-finite residual");
     if (rel <= options_.tolerance)
       return finish(Status::Converged, "converged after " + std::to_string(iteration) + " interior Gauss-Newton steps");
-    if (iteration >= std::min(o_.max_iterations, options_.max_iterations))
+    if (iteration >= std::min(o_.max_iterations, options_.iteration_budget(kDefaultIterationBudget)))
       return finish(Status::MaxIterations, "interior Gauss-Newton step budget spent");
     if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent");
     const double before = phi_;

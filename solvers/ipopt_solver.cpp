@@ -409,7 +409,7 @@ SolveResult IpoptSolver::solve_part(const Structure& part, const SolveOptions& o
   // result back onto them afterwards; that projection moves forces, so it must
   // stay below what the residual test can see.
   o.SetNumericValue("bound_relax_factor", 0.1 * constraint_tolerance);
-  o.SetIntegerValue("max_iter", options.max_iterations);
+  o.SetIntegerValue("max_iter", options.iteration_budget(kDefaultIterationBudget));
   // No max_cpu_time: Ipopt 3.11 measures the CPU time of the whole process, so
   // with solves on other threads it stops early (two busy threads: after half
   // the budget). The wall-clock limit is the intermediate callback's.

@@ -74,7 +74,7 @@ NloptOptions read_options(const SolveOptions& options) {
                      "unknown algorithm for solver nlopt (known: " + names + ")");
   o.ftol_rel = reader.number("ftol_rel", o.ftol_rel, 0.0);
   o.xtol_rel = reader.number("xtol_rel", o.xtol_rel, 0.0);
-  const long default_maxeval = std::min<long>(100L * options.max_iterations, 1L << 30);
+  const long default_maxeval = std::min<long>(100L * options.iteration_budget(kDefaultIterationBudget), 1L << 30);
   o.maxeval = reader.integer("maxeval", static_cast<int>(std::max(1L, default_maxeval)), 1);
   o.penalty_initial = reader.number("penalty_initial", o.penalty_initial, 0.0);
   o.penalty_growth = reader.number("penalty_growth", o.penalty_growth, 1.0);
@@ -421,8 +421,9 @@ RunEnd run_augmented_lagrangian(ScaledProblem& p, std::vector<double>& y,
     end.code = nlopt::SUCCESS;
     return end;
   }
-  end.code = nlopt::MAXEVAL_REACHED;  // also when max_iterations is zero
-  for (int outer = 0; outer < so.max_iterations; ++outer) {
+  end.code = nlopt::MAXEVAL_REACHED;
+  const int outer_budget = so.iteration_budget(kDefaultIterationBudget);
+  for (int outer = 0; outer < outer_budget; ++outer) {
     const double remaining_time = so.time_limit_s - recorder.seconds();
     if (remaining_time <= 0.0) {
       end.code = nlopt::MAXTIME_REACHED;
@@ -483,7 +484,7 @@ RunEnd run_augmented_lagrangian(ScaledProblem& p, std::vector<double>& y,
       break;
     }
     previous_violation = violation;
-    if (outer + 1 == so.max_iterations) {  // the outer budget ran out
+    if (outer + 1 == outer_budget) {  // the outer budget ran out
       end.code = nlopt::MAXEVAL_REACHED;
       end.forced = ForcedStop::None;
     }

@@ -12,7 +12,7 @@ bool SolveOptions::IsValid(std::string* why) const {
     return false;
   };
   if (!(std::isfinite(tolerance) && tolerance > 0.0)) return fail("tolerance must be a finite number > 0");
-  if (max_iterations < 1) return fail("max_iterations must be at least 1");
+  if (max_iterations < 0) return fail("max_iterations must be >= 0 (0: the backend's default)");
   if (!(time_limit_s > 0.0) || std::isnan(time_limit_s)) return fail("time_limit_s must be > 0");
   if (!(std::isfinite(margin_fraction) && margin_fraction > 0.0 && margin_fraction < 1.0))
     return fail("margin_fraction must be in (0, 1)");

@@ -16,15 +16,26 @@
 
 namespace tensegrity {
 
+// Iteration budget of a backend when SolveOptions::max_iterations is 0.
+inline constexpr int kDefaultIterationBudget = 2000;
+
 struct SolveOptions {
   double tolerance = 1e-8;        // relative residual for `converged` (CONTRACT.md)
-  int max_iterations = 2000;      // backend iterations (outer iterations for alternating)
+  // Backend iterations (outer iterations for alternating); 0: the backend's
+  // own default (iteration_budget).
+  int max_iterations = 0;
   double time_limit_s = 120.0;    // wall-clock budget per solve
   double margin_fraction = 1e-3;  // sign margin as a fraction of F0 (force_scale.hpp)
   bool verbose = false;           // let the backend print its own log to stderr
   bool skip_if_in_equilibrium = true;  // stress QP first; return unchanged geometry if it verifies
   // Backend-specific `--option key=value` pairs; each backend rejects unknown keys.
   std::map<std::string, std::string> backend_options;
+  // max_iterations, or `backend_default` when it is 0 (kDefaultIterationBudget
+  // for every backend but the faithful alternating scheme, whose outer
+  // iterations are cheap and unbounded in the paper: alternating_solver.hpp).
+  int iteration_budget(int backend_default) const {
+    return max_iterations > 0 ? max_iterations : backend_default;
+  }
   // Forces (N) of the stress QP at the part's input geometry, when the driver
   // has already solved it (its equilibrium shortcut): backends start from them
   // instead of solving the same QP again. Empty: the backend solves it.

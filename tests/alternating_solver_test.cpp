@@ -295,6 +295,26 @@ TEST(AlternatingSolver, IterationBudgetIsReported) {
   EXPECT_EQ(r.trace.size(), 2u);
 }
 
+// max_iterations = 0 (the default) is each backend's own budget: Algorithm 1
+// has no outer cap and the faithful scheme crawls, so its default is larger
+// than the common one. A tolerance no geometry can meet and epsilon_cvg = 0
+// (not accepted from the command line) keep it iterating, cheaply: the stress
+// QP returns at once and no gradient step is accepted.
+TEST(AlternatingSolver, DefaultIterationBudgetIsTheFaithfulSchemesOwn) {
+  SolveOptions options;
+  EXPECT_EQ(options.iteration_budget(kDefaultIterationBudget), kDefaultIterationBudget);
+  options.tolerance = 1e-300;
+  AlternatingOptions never_stalls;
+  never_stalls.epsilon_cvg = 0.0;
+  const SolveResult r = AlternatingSolver(false).solve_part(prism(4, 0.0, false), options, never_stalls);
+  EXPECT_EQ(r.status, Status::MaxIterations) << r.message;
+  EXPECT_EQ(r.stats.iterations, kFaithfulIterationBudget);
+  EXPECT_GT(kFaithfulIterationBudget, kDefaultIterationBudget);
+  options.max_iterations = 3;
+  EXPECT_EQ(options.iteration_budget(kDefaultIterationBudget), 3);
+  EXPECT_EQ(AlternatingSolver(false).solve_part(prism(4, 0.0, false), options, never_stalls).stats.iterations, 3);
+}
+
 TEST(AlternatingSolver, BackendOptionsAreParsedAndChecked) {
   SolveOptions options;
   options.backend_options = {{"gamma", "0.2"}, {"i_max", "7"}, {"epsilon_cvg", "1e-9"}};
