@@ -626,9 +626,13 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
       }
     }
     if (!ok) break;
-    if (pinned_any)  // a held row of K gives a scaled gradient step; pinned forces stay put
-      for (int i = 0; i < m; ++i)
-        if (q.pinned[i]) q.d[i] = 0.0;
+    (void)pinned_any;
+    // A held row of K gives a scaled gradient step out of the box, which the
+    // projection would undo; as a zero it no longer blocks the truncated step
+    // below at length 0 (which made that candidate useless whenever a force
+    // was held).
+    for (int i = 0; i < m; ++i)
+      if (q.held[i]) q.d[i] = 0.0;
 
     // Candidate steps, judged by the exact decrease of the quadratic
     // (-g.dx - dx.N dx / 2, accurate near a non-zero minimum, unlike a
