@@ -48,7 +48,7 @@ struct StressQp::Impl {
 
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
   bool factorization_valid = false;
-  std::vector<char> held, factored_held, pinned;  // W of the current step / of the factorization
+  std::vector<char> held, factored_held;  // W of the current step / of the factorization
 
   // Work space, sized once per topology.
   Eigen::VectorXd center;
@@ -177,7 +177,6 @@ void StressQp::Impl::build(const SparseMatrix& A, const ForceScale& scale,
   factorization_valid = false;
   held.assign(m, 0);
   factored_held.assign(m, 0);
-  pinned.assign(m, 0);
 
   for (Eigen::VectorXd* v : {&s, &g, &d, &trial, &step, &rhs, &lin_res, &op_out, &masked, &best_s})
     v->setZero(m);
@@ -605,20 +604,16 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
     // solve). Pin such forces at their bound and solve again on the smaller
     // free set; at the pinned subproblem's minimiser the Newton step of a
     // pinned force points inwards, so it is freed again if it should be.
-    bool pinned_any = false;
     for (int round = 0; round < kPinRounds; ++round) {
       bool changed = false;
       for (int i = 0; i < m; ++i) {
-        if (round == 0) q.pinned[i] = 0;
         if (q.held[i]) continue;
         if ((q.s[i] <= q.lower[i] && q.d[i] < 0.0) || (q.s[i] >= q.upper[i] && q.d[i] > 0.0)) {
           q.held[i] = 1;
-          q.pinned[i] = 1;
           changed = true;
         }
       }
       if (!changed) break;
-      pinned_any = true;
       ++result.factorizations;
       if (!q.factorize(q.held) || !q.solve_modified(A, q.rhs, q.d)) {
         ok = false;
@@ -626,7 +621,6 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
       }
     }
     if (!ok) break;
-    (void)pinned_any;
     // A held row of K gives a scaled gradient step out of the box, which the
     // projection would undo; as a zero it no longer blocks the truncated step
     // below at length 0 (which made that candidate useless whenever a force
