@@ -56,8 +56,10 @@
 //   converges on the perturbed characters (docs/ROBUSTNESS.md); without it
 //   duck and puppy ended at relative residual 1e-7 .. 1e-4 after 2000 outer
 //   iterations and scorpion never got below 1e-5 in 20 s. On the 80/500
-//   towers the QP still needs 60-100 factorizations per warm solve and the
-//   scheme does not converge within 20 s.
+//   towers the warm QP now takes a few factorizations (stress_qp.hpp:
+//   pinning, monotone warm starts) and the gravity tower mostly converges,
+//   but on the plain tower the steepest-descent steps converge sublinearly
+//   (relative residual ~1/k) and 20 s are not enough.
 //
 // "alternating-gn": the position phase is one damped Gauss-Newton
 //   (Levenberg-Marquardt) step. By default it is a joint step in z = (q, sigma)
