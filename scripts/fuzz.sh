@@ -1,14 +1,24 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (clang, ASan + UBSan) and runs each for a bounded
 # time on a seed corpus made from tests/bad_inputs and data/:
-#   scripts/fuzz.sh [SECONDS_PER_TARGET]   (default 60)
+#   scripts/fuzz.sh [SECONDS_PER_TARGET [BUILD_DIR]]   (default 60, build-fuzz)
+# Without BUILD_DIR it configures build-fuzz (clang, fuzz targets only). With
+# BUILD_DIR it uses that build, which must be configured with clang and
+# -DTENSEGRITY_FUZZ=ON (scripts/test.sh passes its sanitizer build, build-asan),
+# and only brings the two targets up to date.
 # Exit status non-zero when a target finds a crash, a leak or undefined behaviour.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
-dir=build-fuzz
-cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DTENSEGRITY_FUZZ=ON \
-  -DTENSEGRITY_BUILD_TESTS=OFF -DTENSEGRITY_BUILD_BENCH=OFF >/dev/null
+dir=${2:-}
+if [ -z "$dir" ]; then
+  dir=build-fuzz
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DTENSEGRITY_FUZZ=ON \
+    -DTENSEGRITY_BUILD_TESTS=OFF -DTENSEGRITY_BUILD_BENCH=OFF >/dev/null
+elif ! grep -q "^TENSEGRITY_FUZZ:BOOL=ON" "$dir/CMakeCache.txt" 2>/dev/null; then
+  echo "fuzz: $dir is not a build configured with -DTENSEGRITY_FUZZ=ON (and clang)" >&2
+  exit 2
+fi
 cmake --build "$dir" -j"$(nproc)" --target scene_parser_fuzz character_parser_fuzz
 corpus="$dir/corpus"
 rm -rf "$corpus"
