@@ -479,7 +479,9 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
   if (!q.pattern_matches(A)) q.build(A, scale_, options_);
   const int m = q.m;
 
-  // Starting point: sigma0 projected; the cold start where it is unusable.
+  // Starting point: sigma0 projected; the cold start where it is unusable
+  // (and then the solve is a cold one in every respect).
+  warm_start = warm_start && sigma0.size() == m && sigma0.allFinite();
   if (sigma0.size() == m && sigma0.allFinite()) {
     for (int i = 0; i < m; ++i) q.s[i] = q.project(i, sigma0[i]);
   } else {
@@ -499,7 +501,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
   // The regulariser's centre: the origin (the paper's smallest forces) or,
   // with options_.proximal and a usable warm start, the projected warm start;
   // an interior-point phase moves it (below).
-  if (options_.proximal && warm_start && sigma0.size() == m && sigma0.allFinite()) q.center = q.s;
+  if (options_.proximal && warm_start) q.center = q.s;
   else q.center.setZero(m);
   // r = A s + f_g and g = A^T r + w^2 c (c^T s - t) + mu_term (s - centre).
   auto evaluate = [&](const Eigen::VectorXd& x, double mu_term) {
@@ -525,8 +527,8 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
   // of the subproblem's minimiser predicts the new active set at once, even
   // when that point is worse), safeguarded by a return to the best point.
   double best_objective = kInf;
-  // Only a cold start takes non-monotone steps: from a warm start (or the
-  // interior-point phase's point) the optimum is near, and on degenerate
+  // Only a cold start takes non-monotone steps (also after its interior-point
+  // phase): from a warm start the optimum is near, and on degenerate
   // scenes the projection of a full step predicts its active set badly (on
   // the perturbed 80/500 towers the first such step raised the objective from
   // 2e-5 to 6e3, and the solve never returned below its warm start:
@@ -557,7 +559,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
     if (record) {
       best_objective = objective;
       q.best_s = q.s;
-    } else if (nonmonotone_left == 0) {
+    } else if (nonmonotone_left == 0 && std::isfinite(best_objective)) {
       q.s = q.best_s;  // budget spent: continue monotonically from the best point
       evaluate(q.s, q.mu);
       nonmonotone_left = -1;
@@ -602,8 +604,9 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
     // jams (on the 80/500 towers, warm solves crept along at a fixed
     // projected gradient until the iteration cap: 60-100 factorizations per
     // solve). Pin such forces at their bound and solve again on the smaller
-    // free set; at the pinned subproblem's minimiser the Newton step of a
-    // pinned force points inwards, so it is freed again if it should be.
+    // free set; at the pinned subproblem's minimiser the Newton step of at
+    // least one pinned force points inwards (S^-1 is positive definite), so
+    // the forces that should be free are freed again.
     for (int round = 0; round < kPinRounds; ++round) {
       bool changed = false;
       for (int i = 0; i < m; ++i) {
@@ -692,10 +695,11 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
       }
     }
     if (!(best > 0.0)) {
-      // The Newton direction can fail to descend along the projection arc
-      // (a free force at its bound whose Newton component points out). The
-      // projected diagonally scaled gradient always descends unless sigma is
-      // stationary: backtrack along it instead.
+      // The Newton direction can still fail to descend along the projection
+      // arc (pinning ran out of rounds with a free force at its bound whose
+      // Newton component points out, or rounding). The projected diagonally
+      // scaled gradient always descends unless sigma is stationary:
+      // backtrack along it instead.
       double alpha = 1.0;
       for (int trial = 0; trial < 60; ++trial, alpha *= 0.5) {
         for (int i = 0; i < m; ++i)
@@ -715,12 +719,10 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
       stuck = true;  // unless the interior-point phase finds a better neighbourhood
       continue;
     }
-    // An unclipped full Newton step that left every held force at its bound
-    // solved the subproblem of this held set exactly: if the next gradient
-    // holds the same set, the active set has settled.
+    // An unclipped full Newton step (held forces take none, so they stay at
+    // their bound) solved the subproblem of this held set exactly: if the
+    // next gradient holds the same set, the active set has settled.
     last_step_exact = full_step && !clipped;
-    for (int i = 0; i < m && last_step_exact; ++i)
-      last_step_exact = !q.held[i] || q.trial[i] <= q.lower[i] || q.trial[i] >= q.upper[i];
     q.s = q.trial;
     ++result.iterations;
   }

@@ -141,9 +141,9 @@ void PartSolve::faithful_phase() {
   double budget = alt_.gamma * length;
   const bool sdc = alt_.step_length == FaithfulStepLength::Sdc;
   const int cycle = alt_.sdc_cauchy_steps + alt_.sdc_constant_steps;
-  // A shorter step moves no coordinate by more than its rounding: halving
-  // further only re-evaluates the same geometry (at an equilibrium to
-  // rounding, 60 evaluations per outer iteration).
+  // A shorter step moves the largest coordinates by less than their
+  // rounding: halving further only re-evaluates (nearly) the same geometry
+  // (at an equilibrium to rounding, 60 evaluations per outer iteration).
   const double rounding_step = 4.0 * kEpsilon * (q_.lpNorm<Eigen::Infinity>() + length);
   // Step lengths along -g (x -= alpha g): the Cauchy step of the previous
   // step and the SDC cycle's constant (Yuan) step.
@@ -506,6 +506,7 @@ SolveResult AlternatingSolver::solve_part(const Structure& part, const SolveOpti
     SolveOptions so = options;
     so.time_limit_s = options.time_limit_s - elapsed();
     so.max_iterations = options.iteration_budget(kDefaultIterationBudget) - iterations;
+    // The remainder must stay positive: 0 would mean "the default budget".
     if ((a > 0 || iterations > 0) && (so.time_limit_s <= 0.0 || so.max_iterations <= 0)) break;
     const double offset = elapsed();
     PartSolve solve(part, so, o, true);

@@ -10,8 +10,9 @@
 //
 // Defaults: exact Hessian, linear_solver mumps, tol 1e-12, constr_viol_tol
 // derived from SolveOptions::tolerance (so that Ipopt's success implies the
-// contract's relative residual), mu_strategy adaptive, max_iter from
-// max_iterations, max_cpu_time from time_limit_s (the wall clock is also
+// contract's relative residual), mu_strategy adaptive, max_iter from the
+// iteration budget (SolveOptions::iteration_budget: 2000 when max_iterations
+// is 0), max_cpu_time from time_limit_s (the wall clock is also
 // checked every iteration), print_level 0 and no banner unless verbose (then
 // Ipopt's log goes to stderr; stdout may carry the solution).
 //

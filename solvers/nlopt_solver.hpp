@@ -22,7 +22,8 @@
 //                   no multipliers), auglag-eq-lbfgs (NLopt's own AUGLAG_EQ
 //                   around LD_LBFGS), slsqp (NLopt's SLSQP on Eq. 5, dense)
 //   ftol_rel, xtol_rel   NLopt stopping tolerances of each NLopt run (1e-15)
-//   maxeval         total function evaluations (100 * max_iterations)
+//   maxeval         total function evaluations (100 * the iteration budget,
+//                   SolveOptions::iteration_budget: 2000 when max_iterations is 0)
 //   penalty_initial rho at the start (10), penalty_growth (10), penalty_max (1e12)
 //   lbfgs_memory    L-BFGS / TNEWTON vector storage, 0 = NLopt's heuristic (0)
 //   init            qp (stress QP at the scene geometry, default) or reference

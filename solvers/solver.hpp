@@ -22,7 +22,8 @@ inline constexpr int kDefaultIterationBudget = 2000;
 struct SolveOptions {
   double tolerance = 1e-8;        // relative residual for `converged` (CONTRACT.md)
   // Backend iterations (outer iterations for alternating); 0: the backend's
-  // own default (iteration_budget).
+  // own default (iteration_budget), unlike the 0 = "none" of the budgets in
+  // the backends' own option structs.
   int max_iterations = 0;
   double time_limit_s = 120.0;    // wall-clock budget per solve
   double margin_fraction = 1e-3;  // sign margin as a fraction of F0 (force_scale.hpp)

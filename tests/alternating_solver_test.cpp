@@ -134,11 +134,11 @@ TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
 // scenes are far from any tensegrity, and Ipopt's Eq. 5 fails on several of
 // them too (prism-10 seed 10151, prism-12 seeds 12151 and 12154: 2000
 // iterations at relative residual 3e-3..1.7). The test pins the measured
-// success counts (80 scenes, the default 2000 outer iterations) and that
+// success counts (80 scenes, 2000 outer iterations) and that
 // every failure is a clean status with finite numbers; README "alternating"
 // lists the failing seeds. Measured: alternating 62 with 500 outer
 // iterations (its failures spend the whole budget; 500 keep the suite fast
-// under the sanitizers; 65 with the default 2000), alternating with SDC step
+// under the sanitizers; 65 with 2000), alternating with SDC step
 // lengths, gamma 0.1 and i_max 100 76 (2000), alternating-gn 80.
 struct StronglyPerturbedVariant {
   const char* name;
@@ -303,6 +303,10 @@ TEST(AlternatingSolver, IterationBudgetIsReported) {
 TEST(AlternatingSolver, DefaultIterationBudgetIsTheFaithfulSchemesOwn) {
   SolveOptions options;
   EXPECT_EQ(options.iteration_budget(kDefaultIterationBudget), kDefaultIterationBudget);
+  EXPECT_TRUE(options.IsValid());
+  options.max_iterations = -1;
+  EXPECT_FALSE(options.IsValid());
+  options.max_iterations = 0;
   options.tolerance = 1e-300;
   AlternatingOptions never_stalls;
   never_stalls.epsilon_cvg = 0.0;

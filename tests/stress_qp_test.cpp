@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 
@@ -287,8 +288,7 @@ TEST(StressQp, ProximalWarmSolvesOnThePerturbedTowerSettle) {
   StressQp qp(eq, scale, options);
   StressQpResult r = qp.solve();
   ASSERT_TRUE(r.optimal);
-  double mean_length = 0.0;
-  for (int e = 0; e < s.num_elements(); ++e) mean_length += length(s, e) / s.num_elements();
+  const double mean_length = s.mean_element_length();
   Eigen::VectorXd q = eq.free_nodes().gather(s.positions), f, g(eq.num_equations());
   int factorizations = 0, optimal = 0, at_bound = 0;
   const int moves = 12;
@@ -297,7 +297,8 @@ TEST(StressQp, ProximalWarmSolvesOnThePerturbedTowerSettle) {
     eq.jacobian_positions_product(r.sigma, f, g);
     q -= (1e-3 * mean_length / g.norm()) * g;
     eq.set_free_coordinates(q);
-    const double warm_objective = eq.residual(r.sigma).squaredNorm();
+    const double normalisation_error = scale.normalisation_row.dot(r.sigma) - scale.normalisation_target;
+    const double warm_objective = eq.residual(r.sigma).squaredNorm() + normalisation_error * normalisation_error;
     const StressQpResult next = qp.solve(r.sigma);
     factorizations += next.factorizations;
     optimal += next.optimal;
