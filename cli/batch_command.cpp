@@ -29,8 +29,6 @@
 #include "cli/output.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
-#include "solvers/alternating_solver.hpp"
-#include "solvers/solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -109,9 +107,7 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--jobs", args->jobs, "Scenes solved at once (threads), 1..256");
   cmd->add_option("--out-dir", args->out_dir, "Folder for the solution files")->required();
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
-  cmd->add_option("--max-iterations", args->max_iterations, "Backend iteration budget per scene (default 0: the backend's own, " +
-                      std::to_string(kFaithfulIterationBudget) + " outer iterations for alternating, " +
-                      std::to_string(kDefaultIterationBudget) + " for the others)");
+  cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget per scene"));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds per scene");
   cmd->add_flag("--no-skip", args->no_skip, "Do not return early when a scene is already in equilibrium");
   cmd->add_flag("--measure-speedup", args->measure_speedup, "First solve everything with one job, then report serial/parallel wall time");

@@ -5,6 +5,7 @@
 
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
+#include "solvers/alternating_solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -37,6 +38,11 @@ std::map<std::string, std::string> parse_key_values(const std::vector<std::strin
     kv[item.substr(0, eq)] = item.substr(eq + 1);
   }
   return kv;
+}
+
+std::string max_iterations_help(const std::string& what) {
+  return what + " (default 0: the backend's own, " + std::to_string(kFaithfulIterationBudget) +
+         " outer iterations for alternating, " + std::to_string(kDefaultIterationBudget) + " for the others)";
 }
 
 }  // namespace tensegrity::cli

@@ -17,6 +17,8 @@ std::map<std::string, std::string> parse_key_values(const std::vector<std::strin
 // The solver a command was asked for (empty: the default), with the options
 // checked by it and by SolveOptions::IsValid; InputError (exit 2) otherwise.
 std::unique_ptr<Solver> checked_solver(const std::string& name, const SolveOptions& options);
+// Help text of --max-iterations (solve, batch): 0 and the backends' own budgets.
+std::string max_iterations_help(const std::string& what);
 // Exit status of a finished solve (CONTRACT.md): 0 converged, 1 otherwise.
 inline int exit_status(Status s) { return s == Status::Converged ? 0 : 1; }
 

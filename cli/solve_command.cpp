@@ -8,8 +8,6 @@
 #include "cli/output.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
-#include "solvers/alternating_solver.hpp"
-#include "solvers/solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -36,9 +34,7 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--solver", args->solver, "Backend name (see `tensegrity solvers`); default: the recommended one");
   cmd->add_option("--out", args->out, "Solution file, - for standard output");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
-  cmd->add_option("--max-iterations", args->max_iterations, "Backend iteration budget (default 0: the backend's own, " +
-                      std::to_string(kFaithfulIterationBudget) + " outer iterations for alternating, " +
-                      std::to_string(kDefaultIterationBudget) + " for the others)");
+  cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget"));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds");
   cmd->add_option("--option", args->options, "Backend option key=value (repeatable)");
   cmd->add_option("--trace", args->trace, "Write the per-iteration record as CSV");

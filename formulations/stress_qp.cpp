@@ -75,6 +75,13 @@ struct StressQp::Impl {
   void residual(const SparseMatrix& A, const Eigen::VectorXd* fg, const Eigen::VectorXd& x,
                 Eigen::VectorXd& res) const;
   double project(int i, double v) const { return std::min(std::max(v, lower[i]), upper[i]); }
+  // |A dx|^2 + w^2 (c.dx)^2: the mu-free objective's curvature along dx
+  // (leaves A dx in a_step).
+  double curvature(const SparseMatrix& A, const Eigen::VectorXd& dx) {
+    a_step.noalias() = A * dx;
+    const double c_dx = c.dot(dx);
+    return a_step.squaredNorm() + w2 * c_dx * c_dx;
+  }
 };
 
 void StressQp::Impl::build(const SparseMatrix& A, const ForceScale& scale,
@@ -481,8 +488,9 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
 
   // Starting point: sigma0 projected; the cold start where it is unusable
   // (and then the solve is a cold one in every respect).
-  warm_start = warm_start && sigma0.size() == m && sigma0.allFinite();
-  if (sigma0.size() == m && sigma0.allFinite()) {
+  const bool usable = sigma0.size() == m && sigma0.allFinite();
+  warm_start = warm_start && usable;
+  if (usable) {
     for (int i = 0; i < m; ++i) q.s[i] = q.project(i, sigma0[i]);
   } else {
     for (int i = 0; i < m; ++i)
@@ -641,10 +649,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
     // The largest decrease wins, so a poor projection (many bounds crossed
     // at once from a warm start) cannot stall the iteration.
     auto decrease_of = [&](const Eigen::VectorXd& step) {
-      q.a_step.noalias() = A * step;
-      const double c_step = q.c.dot(step);
-      return -q.g.dot(step) - 0.5 * (q.a_step.squaredNorm() + q.w2 * c_step * c_step +
-                                     q.mu * step.squaredNorm());
+      return -q.g.dot(step) - 0.5 * (q.curvature(A, step) + q.mu * step.squaredNorm());
     };
     auto projected_step = [&](double alpha) {
       for (int i = 0; i < m; ++i) q.step[i] = q.project(i, q.s[i] + alpha * q.d[i]) - q.s[i];
@@ -767,9 +772,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
         // objectives is lost in their rounding and a step that removes the
         // mu bias (~mu |sigma| / lambda_min) would be judged no better.
         q.step = q.s - q.trial;
-        q.a_step.noalias() = A * q.step;
-        const double c_step = q.c.dot(q.step);
-        const double change = 2.0 * q.g.dot(q.step) + q.a_step.squaredNorm() + q.w2 * c_step * c_step;
+        const double change = 2.0 * q.g.dot(q.step) + q.curvature(A, q.step);
         if (!(change < 0.0)) {  // rounding level reached: keep the better point
           q.s = q.trial;
           break;
