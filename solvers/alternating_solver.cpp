@@ -104,6 +104,9 @@ class PartSolve {
   void gauss_newton_phase();
   bool try_step(const SparseMatrix& J, const SparseMatrix& A, const Eigen::VectorXd* anchor_offset);
   SolveResult finish(Status status, std::string message);
+  std::string crawl_note() const {
+    return crawl_from_ < 0 ? "" : " (SDC steps from outer iteration " + std::to_string(crawl_from_) + ")";
+  }
 
   const Structure& part_;
   const SolveOptions& options_;
@@ -131,6 +134,7 @@ class PartSolve {
   double trust_radius_ = 0.0;
   bool restartable_ = false;
   double last_step_ = 1.0, last_largest_move_ = 0.0;  // of the last rejected trial
+  int crawl_from_ = -1;  // adaptive step lengths: the outer iteration SDC steps began at (-1: not yet)
   Eigen::VectorXd anchor_offset_, rhs_anchor_;
 };
 
@@ -139,7 +143,8 @@ void PartSolve::faithful_phase() {
   const double length = length_scale_;
   q_start_ = q_;
   double budget = alt_.gamma * length;
-  const bool sdc = alt_.step_length == FaithfulStepLength::Sdc;
+  const bool sdc = alt_.step_length == FaithfulStepLength::Sdc || crawl_from_ >= 0;
+  const int i_max = crawl_from_ >= 0 ? alt_.crawl_i_max : alt_.i_max;
   const int cycle = alt_.sdc_cauchy_steps + alt_.sdc_constant_steps;
   // A shorter step moves the largest coordinates by less than their
   // rounding: halving further only re-evaluates (nearly) the same geometry
@@ -148,7 +153,7 @@ void PartSolve::faithful_phase() {
   // Step lengths along -g (x -= alpha g): the Cauchy step of the previous
   // step and the SDC cycle's constant (Yuan) step.
   double cauchy_previous = 0.0, gradient_norm_previous = 0.0, yuan = 0.0;
-  for (int i = 0; budget > 0.0 && i < alt_.i_max; ++i) {
+  for (int i = 0; budget > 0.0 && i < i_max; ++i) {
     // J is symmetric: g = J^T f = J f and J d = -J g / |g|, two matrix-free
     // products at the geometry the line search left in eq_ (J is never assembled).
     eq_.jacobian_positions_product(sigma_, f_, g_);
@@ -395,22 +400,29 @@ SolveResult PartSolve::run() {
     if (p.relative_residual <= options_.tolerance)
       return finish(Status::Converged, iteration == 0 ? "in equilibrium at the input geometry"
                                                       : "converged after " + std::to_string(iteration) +
-                                                            " outer iterations");
+                                                            " outer iterations" + crawl_note());
     // Stagnation: a GN run whose objective fell by less than 10 % over the
     // last 200 outer iterations is at (or crawling along) a local minimum.
     if (gauss_newton_ && iteration >= 200 &&
         !(phi_ < 0.9 * recorder_.trace()[recorder_.trace().size() - 201].objective))
       stalled_ = true;
+    // Adaptive step lengths: Cauchy steps until Eq. 4's objective has stopped
+    // falling (above crawl_ratio times its value crawl_window outer iterations
+    // ago), SDC steps with crawl_i_max inner steps from then on.
+    if (!gauss_newton_ && alt_.step_length == FaithfulStepLength::Adaptive && crawl_from_ < 0 &&
+        iteration >= alt_.crawl_window &&
+        !(phi_ < alt_.crawl_ratio * recorder_.trace()[recorder_.trace().size() - 1 - alt_.crawl_window].objective))
+      crawl_from_ = iteration;
     if (stalled_) {
       restartable_ = true;
       return finish(Status::Infeasible, "stalled at a local minimum of Eq. 4 with relative residual " +
-                                            std::to_string(p.relative_residual));
+                                            std::to_string(p.relative_residual) + crawl_note());
     }
     if (iteration >= iteration_budget_) {
       restartable_ = true;
-      return finish(Status::MaxIterations, "outer iteration budget spent");
+      return finish(Status::MaxIterations, "outer iteration budget spent" + crawl_note());
     }
-    if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent");
+    if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent" + crawl_note());
     if (gauss_newton_)
       gauss_newton_phase();
     else
@@ -450,10 +462,16 @@ AlternatingOptions read_alternating_options(const SolveOptions& options, bool ga
   } else {
     o.gamma = reader.number("gamma", o.gamma, 0.0);
     o.i_max = reader.integer("i_max", o.i_max, 1);
-    const std::string rule = reader.text("step_length", o.step_length == FaithfulStepLength::Sdc ? "sdc" : "cauchy");
-    if (rule != "sdc" && rule != "cauchy")
-      throw InputError("command line", "--option step_length", "must be sdc or cauchy, not '" + rule + "'");
-    o.step_length = rule == "sdc" ? FaithfulStepLength::Sdc : FaithfulStepLength::Cauchy;
+    const std::string rule = reader.text("step_length", "adaptive");
+    if (rule != "adaptive" && rule != "sdc" && rule != "cauchy")
+      throw InputError("command line", "--option step_length", "must be adaptive, cauchy or sdc, not '" + rule + "'");
+    o.step_length = rule == "sdc"      ? FaithfulStepLength::Sdc
+                    : rule == "cauchy" ? FaithfulStepLength::Cauchy
+                                       : FaithfulStepLength::Adaptive;
+    o.crawl_window = reader.integer("crawl_window", o.crawl_window, 1);
+    o.crawl_ratio = reader.number("crawl_ratio", o.crawl_ratio, 0.0);
+    o.crawl_i_max = reader.integer("crawl_i_max", o.crawl_i_max, 1);
+    if (o.crawl_ratio > 1.0) throw InputError("command line", "--option crawl_ratio", "must be in (0, 1]");
     o.sdc_cauchy_steps = reader.integer("sdc_cauchy_steps", o.sdc_cauchy_steps, 2);
     o.sdc_constant_steps = reader.integer("sdc_constant_steps", o.sdc_constant_steps, 1);
     if (o.sdc_cauchy_steps > 10000 || o.sdc_constant_steps > 10000)
