@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <string>
 #include <vector>
@@ -396,7 +397,7 @@ SolveResult PartSolve::run() {
     p.objective = phi_;
     recorder_.record(p);
     if (!std::isfinite(phi_) || !std::isfinite(p.relative_residual) || !q_.allFinite())
-      return finish(Status::NumericalError, "non-finite residual or positions");
+      return finish(Status::NumericalError, "non-finite residual or positions" + crawl_note());
     if (p.relative_residual <= options_.tolerance)
       return finish(Status::Converged, iteration == 0 ? "in equilibrium at the input geometry"
                                                       : "converged after " + std::to_string(iteration) +
@@ -406,13 +407,6 @@ SolveResult PartSolve::run() {
     if (gauss_newton_ && iteration >= 200 &&
         !(phi_ < 0.9 * recorder_.trace()[recorder_.trace().size() - 201].objective))
       stalled_ = true;
-    // Adaptive step lengths: Cauchy steps until Eq. 4's objective has stopped
-    // falling (above crawl_ratio times its value crawl_window outer iterations
-    // ago), SDC steps with crawl_i_max inner steps from then on.
-    if (!gauss_newton_ && alt_.step_length == FaithfulStepLength::Adaptive && crawl_from_ < 0 &&
-        iteration >= alt_.crawl_window &&
-        !(phi_ < alt_.crawl_ratio * recorder_.trace()[recorder_.trace().size() - 1 - alt_.crawl_window].objective))
-      crawl_from_ = iteration;
     if (stalled_) {
       restartable_ = true;
       return finish(Status::Infeasible, "stalled at a local minimum of Eq. 4 with relative residual " +
@@ -423,10 +417,19 @@ SolveResult PartSolve::run() {
       return finish(Status::MaxIterations, "outer iteration budget spent" + crawl_note());
     }
     if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent" + crawl_note());
-    if (gauss_newton_)
+    if (gauss_newton_) {
       gauss_newton_phase();
-    else
-      faithful_phase();
+      continue;
+    }
+    // Adaptive step lengths: Cauchy steps until Eq. 4's objective has stopped
+    // falling (above crawl_ratio times its value crawl_window outer iterations
+    // ago), SDC steps with crawl_i_max inner steps from this phase on.
+    const std::vector<TracePoint>& trace = recorder_.trace();
+    if (alt_.step_length == FaithfulStepLength::Adaptive && crawl_from_ < 0 &&
+        trace.size() > static_cast<std::size_t>(alt_.crawl_window) &&
+        !(phi_ < alt_.crawl_ratio * trace[trace.size() - 1 - alt_.crawl_window].objective))
+      crawl_from_ = iteration;
+    faithful_phase();
   }
 }
 
@@ -469,9 +472,12 @@ AlternatingOptions read_alternating_options(const SolveOptions& options, bool ga
                     : rule == "cauchy" ? FaithfulStepLength::Cauchy
                                        : FaithfulStepLength::Adaptive;
     o.crawl_window = reader.integer("crawl_window", o.crawl_window, 1);
-    o.crawl_ratio = reader.number("crawl_ratio", o.crawl_ratio, 0.0);
+    o.crawl_ratio = reader.number("crawl_ratio", o.crawl_ratio, -1e-300);
     o.crawl_i_max = reader.integer("crawl_i_max", o.crawl_i_max, 1);
-    if (o.crawl_ratio > 1.0) throw InputError("command line", "--option crawl_ratio", "must be in (0, 1]");
+    if (!(o.crawl_ratio > 0.0 && o.crawl_ratio <= 1.0))
+      throw InputError("command line", "--option crawl_ratio", "must be in (0, 1]");
+    if (o.crawl_window > 10000 || o.crawl_i_max > 10000)
+      throw InputError("command line", "--option crawl_*", "crawl_window and crawl_i_max must be <= 10000");
     o.sdc_cauchy_steps = reader.integer("sdc_cauchy_steps", o.sdc_cauchy_steps, 2);
     o.sdc_constant_steps = reader.integer("sdc_constant_steps", o.sdc_constant_steps, 1);
     if (o.sdc_cauchy_steps > 10000 || o.sdc_constant_steps > 10000)
