@@ -43,13 +43,14 @@
 //   the 80/500 tower steepest descent with Cauchy steps crawls at relative
 //   residual 1e-7 .. 3e-5 (its top layers carry forces near the sign margin,
 //   so their position gradient is ~1e-8 of the bottom's); the switch took it
-//   from 0 to 16 of the 20 noisy plain-tower trials in 20 s. Scenes that converge
-//   without crawling take the same iterates as with cauchy.
+//   from 0 to 16 of the 20 noisy plain-tower trials in 20 s. Scenes that
+//   converge without crawling take the same iterates as with cauchy.
 //   Measured on tests/alternating_solver_test.cpp's prism grids (80 scenes
 //   each, 2000 outer iterations, 1 % / 5 % / 15 % noise, proximal QP):
-//   cauchy 80 / 80 / 65 converge, adaptive 80 / 80 / 78, sdc
-//   80 / 80 / 73, sdc with gamma = 0.1, i_max = 100 80 / 80 / 76 (geometric-mean geometry change against cauchy
-//   at 1 / 5 %: sdc +1 / +2 %, with gamma = 0.1 +4 / +8 %). The scenes left at 15 % stall at local
+//   cauchy 80 / 80 / 65 converge, adaptive 80 / 80 / 78, sdc 80 / 80 / 73,
+//   sdc with gamma = 0.1, i_max = 100 80 / 80 / 76 (geometric-mean geometry
+//   change against cauchy at 1 / 5 %: sdc +1 / +2 %, with gamma = 0.1
+//   +4 / +8 %). The scenes left at 15 % stall at local
 //   minima of Eq. 4 (the position gradient vanishes at a non-zero residual
 //   the stress QP cannot lower) or crawl; Ipopt fails on three of them too.
 //

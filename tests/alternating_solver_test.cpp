@@ -138,8 +138,9 @@ TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
 // every failure is a clean status with finite numbers; README "alternating"
 // lists the failing seeds. Measured: alternating 67 with 500 outer
 // iterations (its failures spend the whole budget; 500 keep the suite fast
-// under the sanitizers; with step_length=cauchy 62, and 65 with 2000), alternating with SDC step
-// lengths, gamma 0.1 and i_max 100 76 (2000), alternating-gn 80.
+// under the sanitizers; 78 with 2000; with step_length=cauchy 62 and 65),
+// alternating with SDC step lengths, gamma 0.1 and i_max 100 76 (2000),
+// alternating-gn 80.
 struct StronglyPerturbedVariant {
   const char* name;
   const char* backend;
@@ -386,7 +387,8 @@ TEST(AlternatingSolver, BackendOptionsAreParsedAndChecked) {
   EXPECT_EQ(crawl.crawl_i_max, 80);
   for (const auto& [key, value] : std::vector<std::pair<std::string, std::string>>{
            {"step_length", "yuan"}, {"crawl_window", "0"}, {"crawl_window", "10001"}, {"crawl_ratio", "0"},
-           {"crawl_ratio", "1.5"}, {"crawl_i_max", "0"}, {"crawl_i_max", "10001"}, {"sdc_cauchy_steps", "1"}, {"sdc_constant_steps", "0"},
+           {"crawl_ratio", "1.5"}, {"crawl_i_max", "0"}, {"crawl_i_max", "10001"}, {"sdc_cauchy_steps", "1"},
+           {"sdc_constant_steps", "0"},
            {"sdc_constant_steps", "2147483647"}, {"qp_proximal", "maybe"}}) {
     options.backend_options = {{key, value}};
     EXPECT_THROW(read_alternating_options(options, false), InputError) << key << "=" << value;
