@@ -25,7 +25,10 @@
 // iteration jams). From a cold start a few non-monotone projected steps,
 // taken only from a new best point and safeguarded by a return to the best
 // point, let the projection predict many bound changes at once; warm starts
-// are monotone (near the optimum of a degenerate QP such a step is far off).
+// are monotone (near the optimum of a degenerate QP such a step is far off)
+// and their first step holds every force the warm start puts at a bound (the
+// previous active set, usually still right after a small move: one
+// factorization instead of a pinning round per inward-pointing gradient).
 // The active set has settled when an unclipped full Newton step is followed
 // by the same W. The rank-one normalisation term is
 // kept sparse through the quasi-definite augmented matrix
