@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 #include <map>
 #include <utility>
 
@@ -33,11 +34,33 @@ Equilibrium::Equilibrium(const Structure& s)
   length_.resize(m);
   unit_.resize(3, m);
 
+  inverse_length_.resize(m);
   slot_a_.resize(m);
   slot_b_.resize(m);
+  node_a_.resize(m);
+  node_b_.resize(m);
   for (int e = 0; e < m; ++e) {
+    node_a_[e] = elements_[e].a;
+    node_b_[e] = elements_[e].b;
     slot_a_[e] = map_.slot(elements_[e].a);
     slot_b_[e] = map_.slot(elements_[e].b);
+  }
+
+  // Per free node, its element ends in element order (so that the sums per
+  // node add in the order an element-by-element scatter would).
+  {
+    incidence_start_.assign(nf + 1, 0);
+    for (int e = 0; e < m; ++e)
+      for (int end_slot : {slot_a_[e], slot_b_[e]})
+        if (end_slot >= 0) ++incidence_start_[end_slot + 1];
+    for (int k = 0; k < nf; ++k) incidence_start_[k + 1] += incidence_start_[k];
+    incidence_.resize(incidence_start_[nf]);
+    std::vector<int> fill(incidence_start_.begin(), incidence_start_.end() - 1);
+    for (int e = 0; e < m; ++e) {
+      if (slot_a_[e] >= 0) incidence_[fill[slot_a_[e]]++] = 2 * e;
+      if (slot_b_[e] >= 0) incidence_[fill[slot_b_[e]]++] = 2 * e + 1;
+    }
+    element_scratch_.resize(3, m);
   }
 
   // Gravity only when it loads a free node; otherwise f_g stays identically zero.
@@ -162,24 +185,62 @@ void Equilibrium::set_free_coordinates(const Eigen::VectorXd& q) {
   refresh();
 }
 
-void Equilibrium::refresh() {
+void Equilibrium::set_free_coordinates_and_residual(const Eigen::VectorXd& q, const Eigen::VectorXd& sigma,
+                                                    Eigen::VectorXd& f) {
+  map_.scatter(q, x_);
+  update_elements();
+  residual(sigma, f);
+  a_values_stale_ = true;
+}
+
+void Equilibrium::update_elements() {
   degenerate_ = false;
-  double* a_values = A_.valuePtr();
   for (int e = 0; e < num_elements(); ++e) {
-    const Eigen::Vector3d d = x_.col(elements_[e].b) - x_.col(elements_[e].a);
+    const Eigen::Vector3d d = x_.col(node_b_[e]) - x_.col(node_a_[e]);
     const double l = d.norm();
     length_[e] = l;
     if (l > 0.0) {
+      inverse_length_[e] = 1.0 / l;
       unit_.col(e) = d / l;
-    } else {
+    } else {  // zero (or non-finite) length: no direction
       degenerate_ = true;
+      inverse_length_[e] = 0.0;
       unit_.col(e).setZero();
     }
+  }
+}
+
+void Equilibrium::write_a_values() const {
+  double* a_values = A_.valuePtr();
+  for (int e = 0; e < num_elements(); ++e) {
     const int ia = a_value_index_[2 * e], ib = a_value_index_[2 * e + 1];
     for (int k = 0; k < 3; ++k) {
       if (ia >= 0) a_values[ia + k] = unit_(k, e);
       if (ib >= 0) a_values[ib + k] = -unit_(k, e);
     }
+  }
+  a_values_stale_ = false;
+}
+
+void Equilibrium::refresh() {
+  update_elements();
+  write_a_values();
+}
+
+void Equilibrium::gather_to_nodes(const Eigen::Matrix3Xd& per_element, const Eigen::VectorXd* start,
+                                  Eigen::VectorXd& out) const {
+  const int nf = map_.num_free();
+  out.resize(3 * nf);
+  for (int k = 0; k < nf; ++k) {
+    Eigen::Vector3d sum = start ? Eigen::Vector3d(start->segment<3>(3 * k)) : Eigen::Vector3d::Zero();
+    for (int j = incidence_start_[k]; j < incidence_start_[k + 1]; ++j) {
+      const int entry = incidence_[j];  // 2 e (end a: +) or 2 e + 1 (end b: -)
+      if (entry & 1)
+        sum -= per_element.col(entry >> 1);
+      else
+        sum += per_element.col(entry >> 1);
+    }
+    out.segment<3>(3 * k) = sum;
   }
 }
 
@@ -190,15 +251,10 @@ Eigen::VectorXd Equilibrium::residual(const Eigen::VectorXd& sigma) const {
 }
 
 void Equilibrium::residual(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const {
-  if (has_gravity_)
-    f = fg_;
-  else
-    f.setZero(num_equations());
-  for (int e = 0; e < num_elements(); ++e) {
-    const Eigen::Vector3d force = sigma[e] * unit_.col(e);
-    if (slot_a_[e] >= 0) f.segment<3>(3 * slot_a_[e]) += force;
-    if (slot_b_[e] >= 0) f.segment<3>(3 * slot_b_[e]) -= force;
-  }
+  // Element forces first, then a sum per node: scattering into f element by
+  // element chains every update of a node on the previous one's store.
+  element_scratch_ = unit_.array().rowwise() * sigma.transpose().array();
+  gather_to_nodes(element_scratch_, has_gravity_ ? &fg_ : nullptr, f);
 }
 
 const Eigen::SparseMatrix<double>& Equilibrium::jacobian_positions(const Eigen::VectorXd& sigma) {
@@ -226,14 +282,14 @@ void Equilibrium::jacobian_positions_product(const Eigen::VectorXd& sigma, const
   assert(&out != &v);
   out.setZero(num_equations());
   for (int e = 0; e < num_elements(); ++e) {
-    const double l = length_[e];
-    if (!(l > 0.0)) continue;
+    const double inverse = inverse_length_[e];
+    if (!(inverse > 0.0)) continue;
     const int sa = slot_a_[e], sb = slot_b_[e];
     Eigen::Vector3d w = Eigen::Vector3d::Zero();
     if (sb >= 0) w = v.segment<3>(3 * sb);
     if (sa >= 0) w -= v.segment<3>(3 * sa);
     const Eigen::Vector3d u = unit_.col(e);
-    const Eigen::Vector3d k = (sigma[e] / l) * (w - u.dot(w) * u);  // K w
+    const Eigen::Vector3d k = (sigma[e] * inverse) * (w - u.dot(w) * u);  // K w
     if (sa >= 0) out.segment<3>(3 * sa) += k;
     if (sb >= 0) out.segment<3>(3 * sb) -= k;
   }

@@ -33,11 +33,21 @@ class Equilibrium {
   void set_positions(const Eigen::Matrix3Xd& positions);
   // Same, from the free coordinates q (3 n_free).
   void set_free_coordinates(const Eigen::VectorXd& q);
+  // Same, and f = A sigma + f_g at q in the same pass over the elements (as
+  // residual() computes it, to the bit). A's values are written only when A()
+  // is next called: Algorithm 1's line search evaluates many trial geometries
+  // that need f alone. (A() is then not safe to call from two threads at once
+  // on one object; nothing shares an Equilibrium between threads.)
+  void set_free_coordinates_and_residual(const Eigen::VectorXd& q, const Eigen::VectorXd& sigma,
+                                         Eigen::VectorXd& f);
 
   const Eigen::Matrix3Xd& positions() const { return x_; }
   const Eigen::VectorXd& lengths() const { return length_; }       // m
   const Eigen::Matrix3Xd& directions() const { return unit_; }     // u_e
-  const Eigen::SparseMatrix<double>& A() const { return A_; }      // 3 n_free x m
+  const Eigen::SparseMatrix<double>& A() const {                   // 3 n_free x m
+    if (a_values_stale_) write_a_values();
+    return A_;
+  }
   const Eigen::VectorXd& gravity_load() const { return fg_; }      // 3 n_free
   bool has_gravity() const { return has_gravity_; }
 
@@ -84,19 +94,34 @@ class Equilibrium {
 
  private:
   void refresh();  // lengths, directions and A values from x_
+  // Lengths, inverse lengths and directions from x_ (a zero-length element
+  // has direction 0 and sets degenerate_).
+  void update_elements();
+  void write_a_values() const;
+  // out_k = start_k + sum over the element ends at free node k of +-per_element
+  // (+ at end a), in element order.
+  void gather_to_nodes(const Eigen::Matrix3Xd& per_element, const Eigen::VectorXd* start,
+                       Eigen::VectorXd& out) const;
 
   FreeNodeMap map_;
   std::vector<Element> elements_;
   Eigen::Matrix3Xd x_;
   Eigen::VectorXd length_;
   Eigen::Matrix3Xd unit_;
-  Eigen::SparseMatrix<double> A_;
+  Eigen::VectorXd inverse_length_;  // 1 / l, 0 at zero length
+  mutable Eigen::SparseMatrix<double> A_;
+  mutable bool a_values_stale_ = false;
   Eigen::SparseMatrix<double> J_;
   Eigen::VectorXd fg_;
   bool has_gravity_ = false;
   bool degenerate_ = false;
   // Per element, the free slots of its ends (-1 for a fixed end).
   std::vector<int> slot_a_, slot_b_;
+  std::vector<int> node_a_, node_b_;  // end nodes, contiguous for the element loops
+  // Per free slot k, entries incidence_start_[k] .. incidence_start_[k + 1] of
+  // incidence_: 2 e for end a of element e, 2 e + 1 for end b.
+  std::vector<int> incidence_start_, incidence_;
+  mutable Eigen::Matrix3Xd element_scratch_;  // 3 x m, per-element vectors before gather_to_nodes
   // Per element, where the three u entries of end a / end b start in A_'s value
   // array (-1 for a fixed end).
   std::vector<int> a_value_index_;   // 2 per element

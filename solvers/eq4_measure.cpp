@@ -13,6 +13,10 @@ Eq4Measure::Eq4Measure(const Equilibrium& eq, const ForceScale& scale, double no
 
 double Eq4Measure::objective(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const {
   eq_.residual(sigma, f);
+  return objective_of(sigma, f);
+}
+
+double Eq4Measure::objective_of(const Eigen::VectorXd& sigma, const Eigen::VectorXd& f) const {
   double phi = f.squaredNorm();
   if (scale_.has_normalisation()) {
     const double r = scale_.normalisation_row.dot(sigma) - scale_.normalisation_target;

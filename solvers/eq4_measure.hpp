@@ -17,6 +17,8 @@ class Eq4Measure {
 
   // At the equilibrium's current geometry; writes f = A sigma + f_g.
   double objective(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const;
+  // The same from f = A sigma + f_g already evaluated.
+  double objective_of(const Eigen::VectorXd& sigma, const Eigen::VectorXd& f) const;
   double max_node_residual(const Eigen::VectorXd& f) const;
   double relative_residual(double residual, const Eigen::VectorXd& sigma) const;
   double normalisation_weight() const { return w_; }

@@ -471,6 +471,57 @@ TEST(EquilibriumValues, RefreshOnlyRewritesValues) {
   EXPECT_EQ(cols0, cols1);
 }
 
+// Algorithm 1's line search moves with set_free_coordinates_and_residual: f
+// must be the residual an element-by-element scatter gives (to the bit: the
+// per-node sums add in element order), and A's values, written only when A()
+// is next read, those of set_free_coordinates at the same point.
+TEST(EquilibriumValues, FusedMoveAndResidualMatchesTheSeparateCalls) {
+  std::mt19937 rng(11);
+  OctahedronParameters p;
+  p.gravity = true;
+  p.fix_bottom = true;
+  p.strut_mass = 0.05;
+  const Structure s = make_expandable_octahedron(p);
+  Equilibrium fused(s), separate(s);
+  const Eigen::VectorXd sigma = random_vector(s.num_elements(), 1.0, rng);
+  Structure moved = s;
+  perturb_free_nodes(moved, 0.05, rng);
+  Eigen::VectorXd q(fused.num_equations());
+  for (int k = 0; k < fused.free_nodes().num_free(); ++k)
+    q.segment<3>(3 * k) = moved.positions.col(fused.free_nodes().free_nodes()[k]);
+
+  const std::vector<double> a_before(fused.A().valuePtr(), fused.A().valuePtr() + fused.A().nonZeros());
+  Eigen::VectorXd f;
+  fused.set_free_coordinates_and_residual(q, sigma, f);
+  separate.set_free_coordinates(q);
+
+  // The scatter, written out: +sigma u at end a, -sigma u at end b, over f_g.
+  Eigen::VectorXd scattered = separate.gravity_load();
+  for (int e = 0; e < s.num_elements(); ++e) {
+    const Eigen::Vector3d force = sigma[e] * separate.directions().col(e);
+    const int sa = separate.free_nodes().slot(s.elements[e].a), sb = separate.free_nodes().slot(s.elements[e].b);
+    if (sa >= 0) scattered.segment<3>(3 * sa) += force;
+    if (sb >= 0) scattered.segment<3>(3 * sb) -= force;
+  }
+  ASSERT_EQ(f.size(), scattered.size());
+  for (int i = 0; i < f.size(); ++i) EXPECT_EQ(f[i], scattered[i]) << i;
+  EXPECT_EQ(separate.residual(sigma), f);
+  EXPECT_GT((f - fused.gravity_load()).norm(), 1e-3);  // the moved geometry does load the nodes
+  EXPECT_EQ(fused.lengths(), separate.lengths());
+  EXPECT_EQ(fused.directions(), separate.directions());
+
+  const std::vector<double> a_fused(fused.A().valuePtr(), fused.A().valuePtr() + fused.A().nonZeros());
+  const std::vector<double> a_separate(separate.A().valuePtr(), separate.A().valuePtr() + separate.A().nonZeros());
+  EXPECT_EQ(a_fused, a_separate);
+  EXPECT_NE(a_fused, a_before);
+  Eigen::VectorXd q_before = q;
+  for (int k = 0; k < fused.free_nodes().num_free(); ++k)
+    q_before.segment<3>(3 * k) = s.positions.col(fused.free_nodes().free_nodes()[k]);
+  fused.set_free_coordinates_and_residual(q_before, sigma, f);
+  const std::vector<double> a_back(fused.A().valuePtr(), fused.A().valuePtr() + fused.A().nonZeros());
+  EXPECT_EQ(a_back, a_before);
+}
+
 TEST(EquilibriumStructure, HessianLayout) {
   PrismParameters p;
   p.n = 4;
