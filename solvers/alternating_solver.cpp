@@ -39,8 +39,10 @@ class PartSolve {
                                                                 : kFaithfulIterationBudget)),
         recorder_(options.time_limit_s),
         length_scale_(part.mean_element_length()),
-        scale_(make_force_scale(part, alt.margin > 0.0 ? alt.margin : options.margin_fraction)),
         eq_(part),
+        scale_(make_force_scale(part, alt.margin > 0.0                   ? alt.margin
+                                      : !gauss_newton && !eq_.has_gravity() ? kPrestressMargin
+                                                                          : options.margin_fraction)),
         qp_options_(make_qp_options(alt, gauss_newton)),
         qp_(eq_, scale_, qp_options_),
         measure_(eq_, scale_, qp_options_.normalisation_weight) {
@@ -116,8 +118,8 @@ class PartSolve {
   int iteration_budget_;  // outer iterations
   TraceRecorder recorder_;
   double length_scale_;
-  ForceScale scale_;
   Equilibrium eq_;
+  ForceScale scale_;
   StressQpOptions qp_options_;
   StressQp qp_;
   Eq4Measure measure_;
@@ -161,16 +163,22 @@ void PartSolve::faithful_phase() {
     const double gradient_norm = g_.norm();
     if (!(gradient_norm > 0.0) || !std::isfinite(gradient_norm)) break;
     d_ = g_ * (-1.0 / gradient_norm);  // Eq. 6 with the descent sign: dx = gamma_acc * d
-    eq_.jacobian_positions_product(sigma_, g_, jd_);
     // d(|f|^2)/ds = 2 f^T J d = -2 |g|: the linearised minimiser along d is
-    // |g| / |J d|^2 (the Cauchy step, s = alpha |g|).
-    const double curvature = jd_.squaredNorm() / (gradient_norm * gradient_norm);
-    const double cauchy = curvature > 0.0 ? 1.0 / curvature : kInfinity;
+    // |g| / |J d|^2 (the Cauchy step, s = alpha |g|). The second product is
+    // needed for it alone, so an SDC constant step skips it unless the
+    // constant step is rejected.
+    double curvature = -1.0, cauchy = kInfinity;
+    auto compute_cauchy = [&] {
+      eq_.jacobian_positions_product(sigma_, g_, jd_);
+      curvature = jd_.squaredNorm() / (gradient_norm * gradient_norm);
+      cauchy = curvature > 0.0 ? 1.0 / curvature : kInfinity;
+    };
     double first_trial = 0.0;  // an SDC constant step, tried before the Cauchy step
     if (sdc) {
       const int position = i % cycle;
       if (position == 0) yuan = 0.0;  // a cycle never reuses the previous cycle's step
       if (position >= alt_.sdc_cauchy_steps) first_trial = yuan;
+      if (!(first_trial > 0.0 && std::isfinite(first_trial))) compute_cauchy();
       if (position == alt_.sdc_cauchy_steps - 1 && cauchy_previous > 0.0 && std::isfinite(cauchy_previous) &&
           std::isfinite(cauchy)) {
         // Yuan's step from the last two Cauchy steps (De Asmundis et al. 2014, SDC).
@@ -178,6 +186,8 @@ void PartSolve::faithful_phase() {
         const double ratio = gradient_norm / (cauchy_previous * gradient_norm_previous);
         yuan = 2.0 / (std::sqrt((a - b) * (a - b) + 4.0 * ratio * ratio) + a + b);
       }
+    } else {
+      compute_cauchy();
     }
     cauchy_previous = cauchy;
     gradient_norm_previous = gradient_norm;
@@ -185,9 +195,9 @@ void PartSolve::faithful_phase() {
     // Moves to q + step d (in eq_ too) and tests Armijo on Eq. 4's objective.
     auto try_step_length = [&](double step) {
       q_trial_ = q_ + step * d_;
-      eq_.set_free_coordinates(q_trial_);
+      eq_.set_free_coordinates_and_residual(q_trial_, sigma_, f_trial_);
       ++evaluations_;
-      phi_trial = objective(sigma_, f_trial_);
+      phi_trial = measure_.objective_of(sigma_, f_trial_);
       return phi_trial <= phi_ - 1e-4 * 2.0 * step * gradient_norm;
     };
     bool accepted = false;
@@ -196,7 +206,13 @@ void PartSolve::faithful_phase() {
       step = std::min(budget, first_trial * gradient_norm);
       accepted = try_step_length(step);
     }
-    if (!accepted) step = curvature > 0.0 ? std::min(budget, gradient_norm / curvature) : budget;
+    if (!accepted) {
+      if (curvature < 0.0) {  // the rejected constant step left its geometry in eq_
+        eq_.set_free_coordinates(q_);
+        compute_cauchy();
+      }
+      step = curvature > 0.0 ? std::min(budget, gradient_norm / curvature) : budget;
+    }
     for (int halving = 0; !accepted && halving < 60 && step > rounding_step; ++halving) {
       accepted = try_step_length(step);
       if (!accepted) step *= 0.5;

@@ -7,12 +7,15 @@
 #include <utility>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "formulations/force_scale.hpp"
 #include "model/character.hpp"
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
@@ -136,9 +139,11 @@ TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
 // iterations at relative residual 3e-3..1.7). The test pins the measured
 // success counts (80 scenes, 2000 outer iterations) and that
 // every failure is a clean status with finite numbers; README "alternating"
-// lists the failing seeds. Measured: alternating 67 with 500 outer
+// lists the failing seeds. Measured: alternating 73 with 500 outer
 // iterations (its failures spend the whole budget; 500 keep the suite fast
-// under the sanitizers; 78 with 2000; with step_length=cauchy 62 and 65),
+// under the sanitizers; 79 with 2000 and with its own budget of 20000, the
+// one left a local minimum at relative residual 0.52; 67 and 78 before the
+// prestress margin; with step_length=cauchy 62 and 65),
 // alternating with SDC step lengths, gamma 0.1 and i_max 100 76 (2000),
 // alternating-gn 80.
 struct StronglyPerturbedVariant {
@@ -182,7 +187,7 @@ TEST_P(StronglyPerturbedPrisms, MostlyConvergeAndFailCleanly) {
 
 INSTANTIATE_TEST_SUITE_P(
     AlternatingSolver, StronglyPerturbedPrisms,
-    ::testing::Values(StronglyPerturbedVariant{"alternating", "alternating", 500, {}, 65},
+    ::testing::Values(StronglyPerturbedVariant{"alternating", "alternating", 500, {}, 71},
                       StronglyPerturbedVariant{"alternating_sdc",
                                                "alternating",
                                                2000,
@@ -229,6 +234,38 @@ TEST(AlternatingSolver, AdaptiveStepsAreCauchyStepsUntilTheSchemeCrawls) {
   const auto objective = [&](int k) { return crawl.trace[k].objective; };
   EXPECT_GE(objective(from), defaults.crawl_ratio * objective(from - defaults.crawl_window));
   EXPECT_LT(objective(from - 1), defaults.crawl_ratio * objective(from - 1 - defaults.crawl_window));
+}
+
+// The faithful scheme's sign margin is 1e-2 F0 on a part without gravity
+// load (kPrestressMargin), 1e-3 F0 (the shared margin) with one. Where the
+// margin binds the larger one also speeds steepest descent up: on this
+// prism at 30 % noise it converges in 745 outer iterations, against 3336
+// with the shared margin.
+TEST(AlternatingSolver, FaithfulSchemeKeepsAPrestressMarginWithoutGravity) {
+  auto smallest_cable = [](const Structure& s, const SolveResult& r) {
+    const double f0 = make_force_scale(s).reference_force;
+    double smallest = std::numeric_limits<double>::infinity();
+    for (int e = 0; e < s.num_elements(); ++e)
+      if (s.elements[e].kind == ElementKind::Cable) smallest = std::min(smallest, r.forces[e] / f0);
+    return smallest;
+  };
+  const auto solver = make_solver("alternating");
+  const Case plain{"prism-6 at 30 % noise", perturbed(prism(6, 10.0, false), 0.3, 3)};
+  SolveOptions shared;
+  shared.backend_options = {{"margin", "0.001"}};
+  const SolveResult prestress = solve_scene(*solver, plain.scene, SolveOptions{});
+  const SolveResult small = solve_scene(*solver, plain.scene, shared);
+  expect_converged_and_verified(plain, prestress, "alternating");
+  expect_converged_and_verified(plain, small, "alternating margin=0.001");
+  EXPECT_NEAR(smallest_cable(plain.scene, prestress), kPrestressMargin, 1e-9 * kPrestressMargin);
+  EXPECT_GE(smallest_cable(plain.scene, small), 1e-3 * (1.0 - 1e-9));
+  EXPECT_LT(smallest_cable(plain.scene, small), 2e-3);  // below the prestress margin
+  EXPECT_GT(small.stats.iterations, 2 * prestress.stats.iterations);
+
+  const Case loaded{"gravity prism-7 at 15 % noise", perturbed(prism(7, 10.0, true), 0.15, 1)};
+  const SolveResult weighed = solve_scene(*solver, loaded.scene, SolveOptions{});
+  expect_converged_and_verified(loaded, weighed, "alternating");
+  EXPECT_NEAR(smallest_cable(loaded.scene, weighed), SolveOptions{}.margin_fraction, 1e-9);
 }
 
 TEST(AlternatingSolver, PerturbedOctahedraConverge) {
