@@ -423,13 +423,18 @@ TEST(EquilibriumValues, AnalyticPrismIsInEquilibrium) {
   std::printf("[ closed-form prism forces, n = 3..12 ] worst residual / max |sigma| = %.2e\n", worst);
 }
 
-TEST(EquilibriumValues, RefreshOnlyRewritesValues) {
-  std::mt19937 rng(3);
+// The expandable octahedron under gravity on its fixed bottom nodes.
+Structure loaded_octahedron() {
   OctahedronParameters p;
   p.gravity = true;
   p.fix_bottom = true;
   p.strut_mass = 0.05;
-  Structure s = make_expandable_octahedron(p);
+  return make_expandable_octahedron(p);
+}
+
+TEST(EquilibriumValues, RefreshOnlyRewritesValues) {
+  std::mt19937 rng(3);
+  Structure s = loaded_octahedron();
   Equilibrium eq(s);
   const Eigen::VectorXd sigma = random_vector(s.num_elements(), 1.0, rng);
   const Eigen::VectorXd lambda = random_vector(eq.num_equations(), 1.0, rng);
@@ -477,11 +482,7 @@ TEST(EquilibriumValues, RefreshOnlyRewritesValues) {
 // is next read, those of set_free_coordinates at the same point.
 TEST(EquilibriumValues, FusedMoveAndResidualMatchesTheSeparateCalls) {
   std::mt19937 rng(11);
-  OctahedronParameters p;
-  p.gravity = true;
-  p.fix_bottom = true;
-  p.strut_mass = 0.05;
-  const Structure s = make_expandable_octahedron(p);
+  const Structure s = loaded_octahedron();
   Equilibrium fused(s), separate(s);
   const Eigen::VectorXd sigma = random_vector(s.num_elements(), 1.0, rng);
   Structure moved = s;
