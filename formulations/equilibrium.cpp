@@ -60,7 +60,6 @@ Equilibrium::Equilibrium(const Structure& s)
       if (slot_a_[e] >= 0) incidence_[fill[slot_a_[e]]++] = 2 * e;
       if (slot_b_[e] >= 0) incidence_[fill[slot_b_[e]]++] = 2 * e + 1;
     }
-    element_scratch_.resize(3, m);
   }
 
   // Gravity only when it loads a free node; otherwise f_g stays identically zero.
@@ -202,7 +201,7 @@ void Equilibrium::update_elements() {
     if (l > 0.0) {
       inverse_length_[e] = 1.0 / l;
       unit_.col(e) = d / l;
-    } else {  // zero (or non-finite) length: no direction
+    } else {  // zero or NaN length: no direction
       degenerate_ = true;
       inverse_length_[e] = 0.0;
       unit_.col(e).setZero();
@@ -227,23 +226,6 @@ void Equilibrium::refresh() {
   write_a_values();
 }
 
-void Equilibrium::gather_to_nodes(const Eigen::Matrix3Xd& per_element, const Eigen::VectorXd* start,
-                                  Eigen::VectorXd& out) const {
-  const int nf = map_.num_free();
-  out.resize(3 * nf);
-  for (int k = 0; k < nf; ++k) {
-    Eigen::Vector3d sum = start ? Eigen::Vector3d(start->segment<3>(3 * k)) : Eigen::Vector3d::Zero();
-    for (int j = incidence_start_[k]; j < incidence_start_[k + 1]; ++j) {
-      const int entry = incidence_[j];  // 2 e (end a: +) or 2 e + 1 (end b: -)
-      if (entry & 1)
-        sum -= per_element.col(entry >> 1);
-      else
-        sum += per_element.col(entry >> 1);
-    }
-    out.segment<3>(3 * k) = sum;
-  }
-}
-
 Eigen::VectorXd Equilibrium::residual(const Eigen::VectorXd& sigma) const {
   Eigen::VectorXd f;
   residual(sigma, f);
@@ -251,10 +233,23 @@ Eigen::VectorXd Equilibrium::residual(const Eigen::VectorXd& sigma) const {
 }
 
 void Equilibrium::residual(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const {
-  // Element forces first, then a sum per node: scattering into f element by
-  // element chains every update of a node on the previous one's store.
-  element_scratch_ = unit_.array().rowwise() * sigma.transpose().array();
-  gather_to_nodes(element_scratch_, has_gravity_ ? &fg_ : nullptr, f);
+  // A sum per node over its element ends (in element order, so the bits are
+  // those of an element-by-element scatter): scattering into f chains every
+  // update of a node on the previous one's store.
+  const int nf = map_.num_free();
+  f.resize(3 * nf);
+  for (int k = 0; k < nf; ++k) {
+    Eigen::Vector3d sum = has_gravity_ ? Eigen::Vector3d(fg_.segment<3>(3 * k)) : Eigen::Vector3d::Zero();
+    for (int j = incidence_start_[k]; j < incidence_start_[k + 1]; ++j) {
+      const int e = incidence_[j] >> 1;  // 2 e: end a (+ sigma u), 2 e + 1: end b (- sigma u)
+      const Eigen::Vector3d force = sigma[e] * unit_.col(e);
+      if (incidence_[j] & 1)
+        sum -= force;
+      else
+        sum += force;
+    }
+    f.segment<3>(3 * k) = sum;
+  }
 }
 
 const Eigen::SparseMatrix<double>& Equilibrium::jacobian_positions(const Eigen::VectorXd& sigma) {

@@ -36,8 +36,8 @@ class Equilibrium {
   // Same, and f = A sigma + f_g at q in the same pass over the elements (as
   // residual() computes it, to the bit). A's values are written only when A()
   // is next called: Algorithm 1's line search evaluates many trial geometries
-  // that need f alone. (A() is then not safe to call from two threads at once
-  // on one object; nothing shares an Equilibrium between threads.)
+  // that need f alone. (So A(), although const, may write: one Equilibrium
+  // must not be used from two threads at once; nothing shares one.)
   void set_free_coordinates_and_residual(const Eigen::VectorXd& q, const Eigen::VectorXd& sigma,
                                          Eigen::VectorXd& f);
 
@@ -65,6 +65,8 @@ class Equilibrium {
   // the rows of a and subtracts it from those of b (v of a fixed end = 0).
   // About a third of the work of refreshing J's values and multiplying, for a
   // loop (Algorithm 1's gradient steps) that needs two products per geometry.
+  // It scales by sigma_e * (1 / l) (one division per element per geometry,
+  // in the update), so its values may differ from J's by an ulp.
   // out must not alias v; it is resized only when its size is wrong.
   void jacobian_positions_product(const Eigen::VectorXd& sigma, const Eigen::VectorXd& v,
                                   Eigen::VectorXd& out) const;
@@ -98,10 +100,6 @@ class Equilibrium {
   // has direction 0 and sets degenerate_).
   void update_elements();
   void write_a_values() const;
-  // out_k = start_k + sum over the element ends at free node k of +-per_element
-  // (+ at end a), in element order.
-  void gather_to_nodes(const Eigen::Matrix3Xd& per_element, const Eigen::VectorXd* start,
-                       Eigen::VectorXd& out) const;
 
   FreeNodeMap map_;
   std::vector<Element> elements_;
@@ -121,7 +119,6 @@ class Equilibrium {
   // Per free slot k, entries incidence_start_[k] .. incidence_start_[k + 1] of
   // incidence_: 2 e for end a of element e, 2 e + 1 for end b.
   std::vector<int> incidence_start_, incidence_;
-  mutable Eigen::Matrix3Xd element_scratch_;  // 3 x m, per-element vectors before gather_to_nodes
   // Per element, where the three u entries of end a / end b start in A_'s value
   // array (-1 for a fixed end).
   std::vector<int> a_value_index_;   // 2 per element

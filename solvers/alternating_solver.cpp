@@ -41,8 +41,9 @@ class PartSolve {
         length_scale_(part.mean_element_length()),
         eq_(part),
         scale_(make_force_scale(part, alt.margin > 0.0                   ? alt.margin
-                                      : !gauss_newton && !eq_.has_gravity() ? kPrestressMargin
-                                                                          : options.margin_fraction)),
+                                      : !gauss_newton && !eq_.has_gravity()
+                                          ? std::max(kPrestressMargin, options.margin_fraction)
+                                          : options.margin_fraction)),
         qp_options_(make_qp_options(alt, gauss_newton)),
         qp_(eq_, scale_, qp_options_),
         measure_(eq_, scale_, qp_options_.normalisation_weight) {
@@ -157,7 +158,7 @@ void PartSolve::faithful_phase() {
   // step and the SDC cycle's constant (Yuan) step.
   double cauchy_previous = 0.0, gradient_norm_previous = 0.0, yuan = 0.0;
   for (int i = 0; budget > 0.0 && i < i_max; ++i) {
-    // J is symmetric: g = J^T f = J f and J d = -J g / |g|, two matrix-free
+    // J is symmetric: g = J^T f = J f and J d = -J g / |g|, matrix-free
     // products at the geometry the line search left in eq_ (J is never assembled).
     eq_.jacobian_positions_product(sigma_, f_, g_);
     const double gradient_norm = g_.norm();
@@ -189,8 +190,6 @@ void PartSolve::faithful_phase() {
     } else {
       compute_cauchy();
     }
-    cauchy_previous = cauchy;
-    gradient_norm_previous = gradient_norm;
     double phi_trial = phi_;
     // Moves to q + step d (in eq_ too) and tests Armijo on Eq. 4's objective.
     auto try_step_length = [&](double step) {
@@ -213,6 +212,10 @@ void PartSolve::faithful_phase() {
       }
       step = curvature > 0.0 ? std::min(budget, gradient_norm / curvature) : budget;
     }
+    // After the fallback: Yuan's step reads the Cauchy step of the previous
+    // step (computed unless a constant step was accepted there).
+    cauchy_previous = cauchy;
+    gradient_norm_previous = gradient_norm;
     for (int halving = 0; !accepted && halving < 60 && step > rounding_step; ++halving) {
       accepted = try_step_length(step);
       if (!accepted) step *= 0.5;
@@ -260,6 +263,10 @@ bool PartSolve::try_step(const SparseMatrix& J, const SparseMatrix& A, const Eig
     return true;
   }
   const double step = largest_move > trust_radius_ ? trust_radius_ / largest_move : 1.0;
+  // The caller's A (and J) are references into eq_: the eager move below
+  // rewrites A's values at the trial geometry, which the anchored prediction
+  // further down reads (a second-order effect). The fused lazy move of the
+  // faithful phase must not be used here: A would keep stale values.
   q_trial_ = q_ + step * dq_;
   sigma_trial_ = sigma_ + step * dsigma_;
   const bool crosses_bound =

@@ -13,9 +13,10 @@
 //   dx = s d, d = -g / |g|, g = (df/dx)^T f (the descent sign), each step
 //   length s found by a line search on Eq. 4's objective at fixed sigma that
 //   accepts only an Armijo decrease, capped by gamma_acc; gamma_acc -= s.
-//   g and J d are two matrix-free products per step (J is symmetric, so
-//   g = J f and J d = -J g / |g|; Equilibrium::jacobian_positions_product) at
-//   the geometry the accepted trial left in Equilibrium: J is never assembled.
+//   g and J d are matrix-free products (J is symmetric, so g = J f and
+//   J d = -J g / |g|; Equilibrium::jacobian_positions_product) at the geometry
+//   the accepted trial left in Equilibrium: J is never assembled. J d serves
+//   the Cauchy step alone, so an accepted SDC constant step (below) skips it.
 //
 //   Step lengths (the paper leaves the line search open). step_length =
 //   cauchy: the first trial is the minimiser of the linearised
@@ -159,7 +160,8 @@ struct AlternatingOptions {
   double epsilon_cvg = 1e-12;    // stall: outer position update below this (units of L)
   double mu = 1e-10;             // stress QP regulariser (StressQpOptions::mu)
   // Sign margin / F0. 0 = SolveOptions::margin_fraction, except for the
-  // faithful variant on a part without a gravity load: kPrestressMargin.
+  // faithful variant on a part without a gravity load: the larger of that and
+  // kPrestressMargin.
   double margin = 0.0;
   // Gauss-Newton variant.
   double max_step = 0.25;        // trust radius: largest node move per step (units of L)
