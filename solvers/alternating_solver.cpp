@@ -40,10 +40,7 @@ class PartSolve {
         recorder_(options.time_limit_s),
         length_scale_(part.mean_element_length()),
         eq_(part),
-        scale_(make_force_scale(part, alt.margin > 0.0                   ? alt.margin
-                                      : !gauss_newton && !eq_.has_gravity()
-                                          ? std::max(kPrestressMargin, options.margin_fraction)
-                                          : options.margin_fraction)),
+        scale_(make_force_scale(part, alt.margin > 0.0 ? alt.margin : options.margin_fraction)),
         qp_options_(make_qp_options(alt, gauss_newton)),
         qp_(eq_, scale_, qp_options_),
         measure_(eq_, scale_, qp_options_.normalisation_weight) {

@@ -128,20 +128,6 @@ namespace tensegrity {
 // common 2000 stopped it short. The time limit bounds it too.
 inline constexpr int kFaithfulIterationBudget = 20000;
 
-// The faithful variant's default sign margin (/ F0) on a part that no gravity
-// load acts on. Its forces are then a pure prestress, scaled only by the
-// normalisation (mean cable force F0), and steepest descent along Eq. 6
-// converges at a rate set by the smallest force against the largest: nodes
-// held by cables at a margin of 1e-3 F0 have position gradients ~1e-6 of
-// the others'. On the perturbed plain 80/500 tower the scheme then stalled
-// at relative residual 5e-6 .. 1.5e-5 for 20 s (4 of 20 trials at 3-10 %
-// node noise); with 1e-2 those trials converge in 2-4 s. A cable below 1 % of
-// the mean prestress is slack in any built model. With gravity the weight
-// sets the forces and cables that carry (almost) nothing are part of the
-// answer: there the shared margin stays (3e-2 made the perturbed gravity
-// tower fail at 0.1 % noise).
-inline constexpr double kPrestressMargin = 1e-2;
-
 // The faithful variant's line-search rule (see above).
 enum class FaithfulStepLength { Cauchy, Sdc, Adaptive };
 
@@ -159,10 +145,7 @@ struct AlternatingOptions {
   // Both variants.
   double epsilon_cvg = 1e-12;    // stall: outer position update below this (units of L)
   double mu = 1e-10;             // stress QP regulariser (StressQpOptions::mu)
-  // Sign margin / F0. 0 = SolveOptions::margin_fraction, except for the
-  // faithful variant on a part without a gravity load: the larger of that and
-  // kPrestressMargin.
-  double margin = 0.0;
+  double margin = 0.0;           // sign margin / F0; 0 = SolveOptions::margin_fraction
   // Gauss-Newton variant.
   double max_step = 0.25;        // trust radius: largest node move per step (units of L)
   double sigma_weight = 10.0;    // weight of force changes in the joint step (0: positions only)

@@ -139,11 +139,9 @@ TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
 // iterations at relative residual 3e-3..1.7). The test pins the measured
 // success counts (80 scenes, 2000 outer iterations) and that
 // every failure is a clean status with finite numbers; README "alternating"
-// lists the failing seeds. Measured: alternating 73 with 500 outer
+// lists the failing seeds. Measured: alternating 67 with 500 outer
 // iterations (its failures spend the whole budget; 500 keep the suite fast
-// under the sanitizers; 79 with 2000 and with its own budget of 20000, the
-// one left a local minimum at relative residual 0.52; 67 and 78 before the
-// prestress margin; with step_length=cauchy 62 and 65),
+// under the sanitizers; 78 with 2000; with step_length=cauchy 62 and 65),
 // alternating with SDC step lengths, gamma 0.1 and i_max 100 76 (2000),
 // alternating-gn 80.
 struct StronglyPerturbedVariant {
@@ -187,7 +185,7 @@ TEST_P(StronglyPerturbedPrisms, MostlyConvergeAndFailCleanly) {
 
 INSTANTIATE_TEST_SUITE_P(
     AlternatingSolver, StronglyPerturbedPrisms,
-    ::testing::Values(StronglyPerturbedVariant{"alternating", "alternating", 500, {}, 71},
+    ::testing::Values(StronglyPerturbedVariant{"alternating", "alternating", 500, {}, 65},
                       StronglyPerturbedVariant{"alternating_sdc",
                                                "alternating",
                                                2000,
@@ -236,12 +234,13 @@ TEST(AlternatingSolver, AdaptiveStepsAreCauchyStepsUntilTheSchemeCrawls) {
   EXPECT_LT(objective(from - 1), defaults.crawl_ratio * objective(from - 1 - defaults.crawl_window));
 }
 
-// The faithful scheme's sign margin is 1e-2 F0 on a part without gravity
-// load (kPrestressMargin), 1e-3 F0 (the shared margin) with one. Where the
-// margin binds the larger one also speeds steepest descent up: on this
-// prism at 30 % noise it converges in 745 outer iterations, against 3336
-// with the shared margin.
-TEST(AlternatingSolver, FaithfulSchemeKeepsAPrestressMarginWithoutGravity) {
+// The sign margin (option `margin`, / F0; default the shared 1e-3) is the
+// smallest cable force the faithful scheme leaves. Where it binds, a larger
+// one also speeds steepest descent up (the gradient with respect to a node
+// scales with the forces on it): on this prism at 30 % noise 745 outer
+// iterations with 1e-2 against 3336 with 1e-3, at the price of the geometry
+// change wherever the answer needs weaker cables (README, "alternating").
+TEST(AlternatingSolver, MarginOptionSetsTheSmallestCableForce) {
   auto smallest_cable = [](const Structure& s, const SolveResult& r) {
     const double f0 = make_force_scale(s).reference_force;
     double smallest = std::numeric_limits<double>::infinity();
@@ -251,16 +250,16 @@ TEST(AlternatingSolver, FaithfulSchemeKeepsAPrestressMarginWithoutGravity) {
   };
   const auto solver = make_solver("alternating");
   const Case plain{"prism-6 at 30 % noise", perturbed(prism(6, 10.0, false), 0.3, 3)};
-  SolveOptions shared;
-  shared.backend_options = {{"margin", "0.001"}};
-  const SolveResult prestress = solve_scene(*solver, plain.scene, SolveOptions{});
-  const SolveResult small = solve_scene(*solver, plain.scene, shared);
-  expect_converged_and_verified(plain, prestress, "alternating");
-  expect_converged_and_verified(plain, small, "alternating margin=0.001");
-  EXPECT_NEAR(smallest_cable(plain.scene, prestress), kPrestressMargin, 1e-9 * kPrestressMargin);
-  EXPECT_GE(smallest_cable(plain.scene, small), 1e-3 * (1.0 - 1e-9));
-  EXPECT_LT(smallest_cable(plain.scene, small), 2e-3);  // below the prestress margin
-  EXPECT_GT(small.stats.iterations, 2 * prestress.stats.iterations);
+  SolveOptions larger;
+  larger.backend_options = {{"margin", "0.01"}};
+  const SolveResult shared = solve_scene(*solver, plain.scene, SolveOptions{});
+  const SolveResult prestress = solve_scene(*solver, plain.scene, larger);
+  expect_converged_and_verified(plain, shared, "alternating");
+  expect_converged_and_verified(plain, prestress, "alternating margin=0.01");
+  EXPECT_GE(smallest_cable(plain.scene, shared), SolveOptions{}.margin_fraction * (1.0 - 1e-9));
+  EXPECT_LT(smallest_cable(plain.scene, shared), 2e-3);  // the margin binds
+  EXPECT_NEAR(smallest_cable(plain.scene, prestress), 1e-2, 1e-11);
+  EXPECT_GT(shared.stats.iterations, 2 * prestress.stats.iterations);
 
   const Case loaded{"gravity prism-7 at 15 % noise", perturbed(prism(7, 10.0, true), 0.15, 1)};
   const SolveResult weighed = solve_scene(*solver, loaded.scene, SolveOptions{});
