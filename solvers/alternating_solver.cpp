@@ -39,8 +39,8 @@ class PartSolve {
                                                                 : kFaithfulIterationBudget)),
         recorder_(options.time_limit_s),
         length_scale_(part.mean_element_length()),
-        eq_(part),
         scale_(make_force_scale(part, alt.margin > 0.0 ? alt.margin : options.margin_fraction)),
+        eq_(part),
         qp_options_(make_qp_options(alt, gauss_newton)),
         qp_(eq_, scale_, qp_options_),
         measure_(eq_, scale_, qp_options_.normalisation_weight) {
@@ -116,8 +116,8 @@ class PartSolve {
   int iteration_budget_;  // outer iterations
   TraceRecorder recorder_;
   double length_scale_;
-  Equilibrium eq_;
   ForceScale scale_;
+  Equilibrium eq_;
   StressQpOptions qp_options_;
   StressQp qp_;
   Eq4Measure measure_;
