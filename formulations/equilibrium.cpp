@@ -27,8 +27,8 @@ constexpr int lower_entry(int r, int c) { return r * (r + 1) / 2 + c; }
 }  // namespace
 
 Equilibrium::Equilibrium(const Structure& s)
-    : map_(s), elements_(s.elements), x_(s.positions) {
-  const int m = num_elements();
+    : map_(s), x_(s.positions) {
+  const int m = s.num_elements();
   const int nf = map_.num_free();
   const int rows = 3 * nf;
   length_.resize(m);
@@ -40,10 +40,10 @@ Equilibrium::Equilibrium(const Structure& s)
   node_a_.resize(m);
   node_b_.resize(m);
   for (int e = 0; e < m; ++e) {
-    node_a_[e] = elements_[e].a;
-    node_b_[e] = elements_[e].b;
-    slot_a_[e] = map_.slot(elements_[e].a);
-    slot_b_[e] = map_.slot(elements_[e].b);
+    node_a_[e] = s.elements[e].a;
+    node_b_[e] = s.elements[e].b;
+    slot_a_[e] = map_.slot(node_a_[e]);
+    slot_b_[e] = map_.slot(node_b_[e]);
   }
 
   // Per free node, its element ends in element order (so that the sums per

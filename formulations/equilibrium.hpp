@@ -25,7 +25,7 @@ class Equilibrium {
 
   const FreeNodeMap& free_nodes() const { return map_; }
   int num_equations() const { return 3 * map_.num_free(); }
-  int num_elements() const { return static_cast<int>(elements_.size()); }
+  int num_elements() const { return static_cast<int>(node_a_.size()); }
 
   // Sets the geometry (3 x n, fixed nodes at their scene positions) and
   // refreshes lengths, directions and the values of A. The constructor starts
@@ -33,8 +33,8 @@ class Equilibrium {
   void set_positions(const Eigen::Matrix3Xd& positions);
   // Same, from the free coordinates q (3 n_free).
   void set_free_coordinates(const Eigen::VectorXd& q);
-  // Same, and f = A sigma + f_g at q in the same pass over the elements (as
-  // residual() computes it, to the bit). A's values are written only when A()
+  // Same, and f = A sigma + f_g at q in the same call (as residual()
+  // computes it, to the bit). A's values are written only when A()
   // is next called: Algorithm 1's line search evaluates many trial geometries
   // that need f alone. (So A(), although const, may write: one Equilibrium
   // must not be used from two threads at once; nothing shares one.)
@@ -102,7 +102,6 @@ class Equilibrium {
   void write_a_values() const;
 
   FreeNodeMap map_;
-  std::vector<Element> elements_;
   Eigen::Matrix3Xd x_;
   Eigen::VectorXd length_;
   Eigen::Matrix3Xd unit_;
@@ -115,7 +114,7 @@ class Equilibrium {
   bool degenerate_ = false;
   // Per element, the free slots of its ends (-1 for a fixed end).
   std::vector<int> slot_a_, slot_b_;
-  std::vector<int> node_a_, node_b_;  // end nodes, contiguous for the element loops
+  std::vector<int> node_a_, node_b_;  // per element, its end nodes a and b
   // Per free slot k, entries incidence_start_[k] .. incidence_start_[k + 1] of
   // incidence_: 2 e for end a of element e, 2 e + 1 for end b.
   std::vector<int> incidence_start_, incidence_;

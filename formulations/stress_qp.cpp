@@ -613,7 +613,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
     // warm solve, of which ~1-2 remain). The next iteration frees what the
     // gradient at the subproblem's minimiser says should be free.
     if (iteration == 0 && warm_start)
-      for (int i = 0; i < m; ++i) q.held[i] = q.held[i] || q.s[i] <= q.lower[i] || q.s[i] >= q.upper[i];
+      for (int i = 0; i < m; ++i) q.held[i] = q.s[i] <= q.lower[i] || q.s[i] >= q.upper[i];
     if (last_step_exact && q.factorization_valid && q.held == q.factored_held) {
       settled = true;
       break;
