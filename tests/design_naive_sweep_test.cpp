@@ -29,6 +29,7 @@ class GravityPrismDesign : public ::testing::Test {
     ASSERT_FALSE(path.empty()) << "tensegrity design failed, see " << dir_ << "/prism.design.json.log";
     design_ = read_design_file(path);
   }
+  static void TearDownTestSuite() { testing::remove_temp_dir_unless_failed(dir_); }
   static std::string dir_;
   static Design design_;
 };

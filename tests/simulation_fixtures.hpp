@@ -71,6 +71,15 @@ inline std::string temp_dir(const std::string& name) {
   return dir.string();
 }
 
+// Removes a suite's temp_dir once the suite has passed; a failed suite keeps
+// it, because its failure messages point at the logs inside.
+inline void remove_temp_dir_unless_failed(const std::string& dir) {
+  const ::testing::TestSuite* suite = ::testing::UnitTest::GetInstance()->current_test_suite();
+  if (dir.empty() || (suite != nullptr && suite->Failed())) return;
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+}
+
 // Runs `tensegrity design INPUT ARGS --out DIR/OUT`; returns the design path ("" on failure).
 inline std::string run_design(const std::string& input, const std::string& args, const std::string& out) {
   std::string cmd = TENSEGRITY_BINARY;  // appended, not chained: see shipped_material

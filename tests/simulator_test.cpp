@@ -127,6 +127,7 @@ class DesignedPrism : public ::testing::Test {
     dir_ = testing::temp_dir("simulator");
     scene_ = testing::gravity_prism_scene(dir_);
   }
+  static void TearDownTestSuite() { testing::remove_temp_dir_unless_failed(dir_); }
   static Design design(const std::string& material) {
     const std::string out = dir_ + "/" + material.substr(material.rfind('/') + 1) + ".design.json";
     const std::string path = testing::run_design(scene_, "--material " + material + " --strain 0.3", out);
