@@ -129,11 +129,11 @@ namespace tensegrity {
 // iterations are cheap (a warm stress QP, typically one or two
 // factorizations, and at most i_max matrix-free gradient steps), but steepest
 // descent crawls: on the perturbed characters at 3-10 % node noise the
-// faithful scheme needs thousands of outer iterations, some 30000 for
-// scorpion at 10 % noise with crawl_i_max = 100 (about 1500 per second), so
-// the common 2000 stopped it short and 20000 (sessions 5-7) stopped scorpion
-// and prisms at 30 % noise before their time limit. The time limit bounds it
-// too.
+// faithful scheme needs thousands of outer iterations; with crawl_i_max =
+// 100 it runs ~900 per second on scorpion at 10 % noise and several
+// thousand per second on small prisms, so the common 2000 stopped it short
+// and 20000 (sessions 5-7) stopped prisms at 30 % noise after 1-2 s, well
+// before their time limit. The time limit bounds it too.
 inline constexpr int kFaithfulIterationBudget = 100000;
 
 // The faithful variant's line-search rule (see above).
