@@ -42,18 +42,20 @@
 //   crawl_window outer iterations earlier; from then on SDC steps, at most
 //   crawl_i_max per outer iteration (the result's message says where). On
 //   the 80/500 tower steepest descent with Cauchy steps crawls at relative
-//   residual 1e-7 .. 3e-5 (its top layers carry forces near the sign margin,
-//   so their position gradient is ~1e-8 of the bottom's); the switch took it
+//   residual 1e-7 .. 3e-5 (the stress QP deflates the top module's forces to
+//   the sign margin, ~1e-3 of its neighbours', so its position gradient is
+//   ~1e-3 of theirs and its curvature ~1e-6); the switch took it
 //   from 0 to 16 of the 20 noisy plain-tower trials in 20 s. Scenes that
 //   converge without crawling take the same iterates as with cauchy.
 //   crawl_i_max = 100 rather than 500: with warm stress solves of one or two
 //   factorizations, a QP every 100 steps lets the forces follow the geometry
 //   instead of descending on stale forces, which converged the gravity tower
-//   at 10 % noise in 11-15 s instead of 19-32 s with 30-40 % less geometry
+//   at 10 % noise in 11-15 s instead of 19-32 s with 25-35 % less geometry
 //   change (README, "alternating").
 //   Measured on tests/alternating_solver_test.cpp's prism grids (80 scenes
 //   each, 2000 outer iterations, 1 % / 5 % / 15 % noise, proximal QP):
-//   cauchy 80 / 80 / 65 converge, adaptive 80 / 80 / 78, sdc 80 / 80 / 73,
+//   cauchy 80 / 80 / 65 converge, adaptive 80 / 80 / 78 (crawl_i_max 500;
+//   with 100: 76 in 2000, 78 in the faithful budget), sdc 80 / 80 / 73,
 //   sdc with gamma = 0.1, i_max = 100 80 / 80 / 76 (geometric-mean geometry
 //   change against cauchy at 1 / 5 %: sdc +1 / +2 %, with gamma = 0.1
 //   +4 / +8 %). The scenes left at 15 % stall at local

@@ -137,7 +137,7 @@ TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
 // scenes are far from any tensegrity, and Ipopt's Eq. 5 fails on several of
 // them too (prism-10 seed 10151, prism-12 seeds 12151 and 12154: 2000
 // iterations at relative residual 3e-3..1.7). The test pins the measured
-// success counts (80 scenes, 2000 outer iterations) and that
+// success counts (80 scenes, each variant's outer-iteration budget) and that
 // every failure is a clean status with finite numbers; README "alternating"
 // lists the failing seeds. Measured: alternating 73 with 1000 outer
 // iterations (its failures spend the whole budget; 1000 keep the suite fast
