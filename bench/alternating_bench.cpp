@@ -14,22 +14,22 @@
 #include <string>
 #include <vector>
 
-#include "bench/large_scenes.hpp"
+#include "scenes/towers.hpp"
 #include "model/reference_scenes.hpp"
-#include "solvers/alternating_solver.hpp"
+#include "scenes/perturb.hpp"
+#include "solvers/alternating/alternating_solver.hpp"
 
 namespace tensegrity {
 namespace {
 
+// Free nodes moved by up to `noise` times the first element's length (a strut
+// in these scenes), componentwise uniform.
 Structure perturbed(Structure s, double noise, unsigned seed) {
-  const auto& e0 = s.elements.front();  // reference scenes list struts first
-  const double strut = (s.positions.col(e0.b) - s.positions.col(e0.a)).norm();
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int i = 0; i < s.num_nodes(); ++i)
-    if (!s.fixed[i])
-      for (int k = 0; k < 3; ++k) s.positions(k, i) += noise * strut * u(rng);
-  return s;
+  scenes::NodeNoise n;
+  n.fraction = noise;
+  n.length = scenes::LengthMeasure::FirstElement;
+  n.shape = scenes::NoiseShape::Cube;
+  return scenes::with_node_noise(std::move(s), n, seed);
 }
 
 Structure prism_scene(int n, bool gravity) {
@@ -59,16 +59,16 @@ Structure octahedron_scene(bool gravity) {
 }
 
 Structure tower_scene(bool gravity) {
-  return bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", gravity);
+  return scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", gravity);
 }
 
 void run(benchmark::State& state, bool gauss_newton, const Structure& scene) {
-  const AlternatingSolver solver(gauss_newton);
+  const auto solver = make_solver(gauss_newton ? "alternating-gn" : "alternating");
   SolveOptions options;
   if (!gauss_newton && scene.num_elements() > 100) options.time_limit_s = 30.0;
   SolveResult r;
   for (auto _ : state) {
-    r = solver.solve_part(scene, options);
+    r = solver->Solve(scene, options, DriverControls{false});
     benchmark::DoNotOptimize(r.forces.data());
   }
   double time_to_tolerance = NAN;

@@ -1,5 +1,5 @@
 // Every registered backend on every benchmark scene, through the same driver
-// as `tensegrity solve` (solve_scene, skip_if_in_equilibrium off).
+// as `tensegrity solve` (Solver::Solve, without the equilibrium shortcut).
 //
 //   build/bench/compare_bench --benchmark_out=compare.json --benchmark_out_format=json
 //       --benchmark_repetitions=3 --trace_dir=traces      (one command line)
@@ -52,12 +52,12 @@
 #include <string>
 #include <vector>
 
-#include "bench/large_scenes.hpp"
+#include "scenes/towers.hpp"
 #include "model/character.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
 #include "solvers/trace_csv.hpp"
-#include "tests/scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 
 // ---------------------------------------------------------------------------
 // Heap meter: malloc and friends are interposed for the whole process (shared
@@ -165,7 +165,7 @@ Structure character(const std::string& name) {
 Structure chain(int n) {
   Structure s =
       build_character(make_chain_character(n), "chain-" + std::to_string(n), BlockLibrary::standard()).structure;
-  s = testing::perturbed(s, 0.02, 1000u + static_cast<unsigned>(n));
+  s = scenes::perturbed(s, 0.02, 1000u + static_cast<unsigned>(n));
   s.name = "chain-" + std::to_string(n);
   return s;
 }
@@ -175,18 +175,18 @@ Structure chain(int n) {
 // always solves it): L layers of 6-strut prisms joined by two cables per top
 // node, every node moved by 2 % of the strut length, no gravity.
 Structure scaling_tower(int layers) {
-  bench::LargeSceneParameters p;
+  scenes::TowerParameters p;
   p.layers = layers;
   p.struts_per_layer = 6;
   p.cables = 3 * 6 * layers + 2 * 6 * (layers - 1);
   p.seed = 100u + static_cast<unsigned>(layers);
-  Structure s = bench::make_prism_tower(p);
+  Structure s = scenes::make_prism_tower(p);
   s.name = "tower-layers-" + std::to_string(layers);
   return s;
 }
 
 Structure tower(bool gravity) {
-  return bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", gravity);
+  return scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", gravity);
 }
 
 std::vector<BenchScene> all_scenes() {
@@ -232,13 +232,12 @@ void run(benchmark::State& state, const std::string& backend, const Structure& s
   SolveOptions options;
   options.tolerance = config().tolerance;
   options.time_limit_s = config().time_limit_s;
-  options.skip_if_in_equilibrium = false;
   SolveResult r;
   long long peak_heap = 0;
   for (auto _ : state) {
     const long long base = g_live_bytes.load(std::memory_order_relaxed);
     g_peak_bytes.store(base, std::memory_order_relaxed);
-    r = solve_scene(*solver, scene, options);
+    r = solver->Solve(scene, options, DriverControls{false});
     benchmark::DoNotOptimize(r.forces.data());
     peak_heap = std::max(peak_heap, g_peak_bytes.load(std::memory_order_relaxed) - base);
   }

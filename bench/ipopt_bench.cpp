@@ -12,33 +12,32 @@
 #include <string>
 #include <vector>
 
-#include "bench/large_scenes.hpp"
+#include "scenes/towers.hpp"
 #include "model/verify.hpp"
-#include "solvers/ipopt_solver.hpp"
-#include "tests/scene_fixtures.hpp"
+#include "solvers/ipopt/ipopt_solver.hpp"
+#include "scenes/suites.hpp"
 
 namespace tensegrity {
 namespace {
 
 std::vector<Structure> bench_scenes() {
   std::vector<Structure> v;
-  v.push_back(testing::prism(6, 10.0));
-  v.push_back(testing::perturbed(testing::octahedron(), 0.05, 3u));
-  v.push_back(testing::perturbed(testing::prism(6, 0.0, true), 0.05, 6u));
-  v.push_back(testing::perturbed(testing::octahedron(true), 0.05, 8u));
-  v.push_back(bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false));
-  v.push_back(bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true));
+  v.push_back(scenes::prism(6, 10.0));
+  v.push_back(scenes::perturbed(scenes::octahedron(), 0.05, 3u));
+  v.push_back(scenes::perturbed(scenes::prism(6, 0.0, true), 0.05, 6u));
+  v.push_back(scenes::perturbed(scenes::octahedron(true), 0.05, 8u));
+  v.push_back(scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false));
+  v.push_back(scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true));
   return v;
 }
 
 void solve_with(benchmark::State& state, const Structure& scene, const std::string& hessian) {
   const IpoptSolver solver;
   SolveOptions options;
-  options.skip_if_in_equilibrium = false;
   options.time_limit_s = 30.0;  // limited-memory on the tower would take minutes
   options.backend_options["hessian_approximation"] = hessian;
   SolveResult r;
-  for (auto _ : state) r = solver.solve_part(scene, options);
+  for (auto _ : state) r = solver.Solve(scene, options, DriverControls{false});
   const Verification v = verify(scene, r.positions, r.forces, options.tolerance);
   state.counters["iterations"] = r.stats.iterations;
   state.counters["relative_residual"] = v.relative_residual;

@@ -12,24 +12,24 @@
 #include <string>
 #include <vector>
 
-#include "bench/large_scenes.hpp"
+#include "scenes/towers.hpp"
 #include "model/verify.hpp"
-#include "solvers/nlopt_solver.hpp"
+#include "solvers/nlopt/nlopt_solver.hpp"
 #include "solvers/solver.hpp"
-#include "tests/scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 
 namespace tensegrity {
 namespace {
 
 std::vector<Structure> bench_scenes() {
   std::vector<Structure> v;
-  v.push_back(testing::prism(6, 10.0));
-  v.push_back(testing::perturbed(testing::prism(12), 0.05, 23u));
-  v.push_back(testing::perturbed(testing::octahedron(), 0.05, 3u));
-  v.push_back(testing::perturbed(testing::prism(6, 0.0, true), 0.05, 6u));
-  v.push_back(testing::perturbed(testing::octahedron(true), 0.05, 8u));
-  v.push_back(bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false));
-  v.push_back(bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true));
+  v.push_back(scenes::prism(6, 10.0));
+  v.push_back(scenes::perturbed(scenes::prism(12), 0.05, 23u));
+  v.push_back(scenes::perturbed(scenes::octahedron(), 0.05, 3u));
+  v.push_back(scenes::perturbed(scenes::prism(6, 0.0, true), 0.05, 6u));
+  v.push_back(scenes::perturbed(scenes::octahedron(true), 0.05, 8u));
+  v.push_back(scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false));
+  v.push_back(scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true));
   return v;
 }
 

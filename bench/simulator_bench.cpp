@@ -18,7 +18,7 @@
 
 #include "model/character.hpp"
 #include "model/design.hpp"
-#include "solvers/simulator.hpp"
+#include "simulation/simulator.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {

@@ -67,13 +67,13 @@ struct PassResult {
 };
 
 PassResult solve_all(const std::vector<Structure>& scenes, const std::string& solver_name,
-                     const SolveOptions& options, int jobs) {
+                     const SolveOptions& options, const DriverControls& controls, int jobs) {
   PassResult pass;
   pass.results.resize(scenes.size());
   std::atomic<std::size_t> next{0};
   auto worker = [&] {
     const auto solver = make_solver(solver_name);  // one instance per thread: no shared state
-    for (std::size_t i = next++; i < scenes.size(); i = next++) pass.results[i] = solve_scene(*solver, scenes[i], options);
+    for (std::size_t i = next++; i < scenes.size(); i = next++) pass.results[i] = solver->Solve(scenes[i], options, controls);
   };
   const double cpu0 = process_cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
@@ -119,7 +119,8 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       options.tolerance = args->tol;
       options.max_iterations = args->max_iterations;
       options.time_limit_s = args->time_limit;
-      options.skip_if_in_equilibrium = !args->no_skip;
+      DriverControls controls;
+      controls.skip_if_in_equilibrium = !args->no_skip;
       const std::string name(checked_solver(args->solver, options)->name());
       std::vector<Structure> scenes;
       std::vector<std::string> stems;
@@ -136,10 +137,10 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       PassResult serial;
       if (args->measure_speedup && args->jobs > 1) {
         std::cerr << "batch: " << scenes.size() << " scenes with " << name << ", 1 job (for the speed-up)...\n";
-        serial = solve_all(scenes, name, options, 1);
+        serial = solve_all(scenes, name, options, controls, 1);
       }
       std::cerr << "batch: " << scenes.size() << " scenes with " << name << ", " << args->jobs << " jobs...\n";
-      const PassResult parallel = solve_all(scenes, name, options, args->jobs);
+      const PassResult parallel = solve_all(scenes, name, options, controls, args->jobs);
 
       int failures = 0;
       double sum_s = 0.0;

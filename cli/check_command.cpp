@@ -10,7 +10,7 @@
 #include "model/solution.hpp"
 #include "model/verify.hpp"
 #include "model/design.hpp"
-#include "solvers/stability.hpp"
+#include "simulation/stability.hpp"
 
 namespace tensegrity::cli {
 

@@ -34,15 +34,15 @@
 #include "cli/naive_comparison_report.hpp"
 #include "cli/output.hpp"
 #include "formulations/force_scale.hpp"
-#include "formulations/rest_lengths.hpp"
+#include "design/rest_lengths.hpp"
 #include "model/character.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
-#include "solvers/force_cap.hpp"
-#include "solvers/naive_sweep.hpp"
-#include "solvers/stiffness_solver.hpp"
+#include "design/force_cap.hpp"
+#include "design/naive_sweep.hpp"
+#include "design/stiffness_solver.hpp"
 
 namespace tensegrity::cli {
 

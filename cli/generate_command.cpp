@@ -9,7 +9,7 @@
 #include <memory>
 
 #include "cli/commands.hpp"
-#include "bench/large_scenes.hpp"
+#include "scenes/towers.hpp"
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"
@@ -22,7 +22,7 @@ void register_generate_command(CLI::App& app, CommandRunner& run) {
   auto* ref = cmd->add_subcommand("reference", "Regular prisms n=3..12 and the expandable octahedron");
   ref->add_option("--out-dir", *out_dir, "Folder to write into");
   struct TowerArgs {
-    bench::LargeSceneParameters p;
+    scenes::TowerParameters p;
     std::string out;
   };
   auto tower = std::make_shared<TowerArgs>();
@@ -37,7 +37,7 @@ void register_generate_command(CLI::App& app, CommandRunner& run) {
   tw->add_option("--out", tower->out, "Scene file to write")->required();
   tw->callback([tower, &run] {
     run = [tower] {
-      write_scene_file(bench::make_prism_tower(tower->p), tower->out);
+      write_scene_file(scenes::make_prism_tower(tower->p), tower->out);
       return 0;
     };
   });

@@ -35,6 +35,11 @@ int main(int argc, char** argv) {
   }
   try {
     return run ? run() : 2;
+  } catch (const OptionError& e) {
+    // The library names the option; the command line names the flag that gave it.
+    std::cerr << "tensegrity: command line: --option " << e.key() << (e.value().empty() ? "" : "=" + e.value())
+              << ": " << e.reason() << " (solver " << e.backend() << ")\n";
+    return 2;
   } catch (const InputError& e) {
     std::cerr << "tensegrity: " << e.what() << "\n";
     return 2;

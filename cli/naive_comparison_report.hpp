@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "solvers/naive_sweep.hpp"
+#include "design/naive_sweep.hpp"
 
 namespace tensegrity::cli {
 

@@ -5,7 +5,7 @@
 
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
-#include "solvers/alternating_solver.hpp"
+#include "solvers/alternating/alternating_solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -25,7 +25,7 @@ std::unique_ptr<Solver> checked_solver(const std::string& name, const SolveOptio
   std::string why;
   if (!options.IsValid(&why)) throw InputError("command line", "options", why);
   auto solver = make_solver(name.empty() ? default_solver_name() : name);
-  solver->check_options(options);
+  solver->ValidateOptions(options);
   return solver;
 }
 

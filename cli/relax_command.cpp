@@ -15,7 +15,7 @@
 #include "model/errors.hpp"
 #include "model/solution.hpp"
 #include "model/verify.hpp"
-#include "solvers/simulator.hpp"
+#include "simulation/simulator.hpp"
 
 namespace tensegrity::cli {
 

@@ -24,7 +24,7 @@
 #include "model/design.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
-#include "solvers/simulator.hpp"
+#include "simulation/simulator.hpp"
 
 namespace tensegrity::cli {
 

@@ -49,12 +49,13 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
       options.max_iterations = args->max_iterations;
       options.time_limit_s = args->time_limit;
       options.verbose = args->verbose;
-      options.skip_if_in_equilibrium = !args->no_skip;
+      DriverControls controls;
+      controls.skip_if_in_equilibrium = !args->no_skip;
       options.backend_options = parse_key_values(args->options);
       const auto solver = checked_solver(args->solver, options);
       const std::string name(solver->name());
       const Structure scene = read_scene_file(args->scene);
-      const SolveResult r = solve_scene(*solver, scene, options);
+      const SolveResult r = solver->Solve(scene, options, controls);
       write_solution_file(to_solution(r, scene, name), args->out);
       if (!args->trace.empty()) write_trace_csv(args->trace, r.trace);
       // The solved geometry as a new scene (a start for further design), only

@@ -19,4 +19,20 @@ class InputError : public std::runtime_error {
   std::string file_, item_, reason_;
 };
 
+// A backend option (`key=value`) that a backend does not know or whose value
+// is malformed or out of range. The library names the backend and the option;
+// the command line adds its own flag wording (`--option key=value`).
+class OptionError : public InputError {
+ public:
+  OptionError(std::string backend, std::string key, std::string value, std::string reason)
+      : InputError("options", backend + " option " + key + (value.empty() ? "" : "=" + value), reason),
+        backend_(std::move(backend)), key_(std::move(key)), value_(std::move(value)) {}
+  const std::string& backend() const { return backend_; }
+  const std::string& key() const { return key_; }
+  const std::string& value() const { return value_; }
+
+ private:
+  std::string backend_, key_, value_;
+};
+
 }  // namespace tensegrity

@@ -1,5 +1,7 @@
 #pragma once
-// Analytic reference structures (tests, benchmarks, data/reference/).
+// Analytic reference structures: the block library builds its prisms and
+// octahedra from them; scenes/ generates the test, benchmark and stress-test
+// scenes from them; data/reference/ holds them as files.
 //
 // Regular n-strut prism: bottom node k at angle 2 pi k / n and height 0, top node
 // k at alpha + 2 pi k / n and height h, all on radius r. Struts join bottom k to

@@ -7,13 +7,14 @@ namespace tensegrity {
 
 namespace {
 
-// The strings of CONTRACT.md; never change them.
-constexpr std::array<std::pair<Status, std::string_view>, 5> kStatusNames = {{
+// The strings of the solution file format (docs/FORMATS.md); never change them.
+constexpr std::array<std::pair<Status, std::string_view>, 6> kStatusNames = {{
     {Status::Converged, "converged"},
     {Status::MaxIterations, "max_iterations"},
     {Status::Infeasible, "infeasible"},
     {Status::NumericalError, "numerical_error"},
     {Status::TimeLimit, "time_limit"},
+    {Status::Stalled, "stalled"},
 }};
 
 }  // namespace

@@ -8,9 +8,10 @@ namespace tensegrity {
 enum class Status {
   Converged,       // relative residual <= tolerance, every sign correct, all finite
   MaxIterations,   // the iteration budget ran out
-  Infeasible,      // no admissible configuration within the backend's reach
-  NumericalError,  // a factorization or evaluation failed
+  Infeasible,      // proven: no admissible configuration exists (see the solution format)
+  NumericalError,  // a factorization or evaluation failed, or a result failed verification
   TimeLimit,       // the time budget ran out
+  Stalled,         // no progress and no proof of infeasibility
 };
 
 std::string_view to_string(Status s);

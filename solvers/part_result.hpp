@@ -1,9 +1,8 @@
 #pragma once
 // The common ending of the alternating backends' part solves: scatter the
-// free coordinates into full positions, re-verify independently (model/verify)
-// and fill the SolveResult. A `Converged` claim that the verification rejects
-// becomes MaxIterations (NumericalError when something is not finite), with
-// the verification's reasons in the message.
+// free coordinates into full positions and fill the SolveResult, its stats
+// measured by model/verify (the driver verifies the merged result again
+// before it accepts a Converged claim).
 #include <Eigen/Core>
 #include <string>
 

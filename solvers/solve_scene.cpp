@@ -1,4 +1,6 @@
-// The driver shared by every backend: parts, shortcuts, merging, verification.
+// The driver shared by every backend: settings, parts, prechecks, merging,
+// one independent verification, and the outcome as one status.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -7,7 +9,7 @@
 #include "formulations/components.hpp"
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
-#include "formulations/stress_qp.hpp"
+#include "kernels/stress_qp.hpp"
 #include "model/errors.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
@@ -16,6 +18,10 @@ namespace tensegrity {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// The remaining budget a part gets is never below this, so that a part late in
+// a solve still runs its first iteration and reports a status.
+constexpr double kSmallestPartTimeLimit = 1e-3;  // s
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -27,42 +33,84 @@ int severity(Status s) {
     case Status::Converged: return 0;
     case Status::MaxIterations: return 1;
     case Status::TimeLimit: return 2;
-    case Status::Infeasible: return 3;
-    case Status::NumericalError: return 4;
+    case Status::Stalled: return 3;
+    case Status::Infeasible: return 4;
+    case Status::NumericalError: return 5;
   }
-  return 4;
+  return 5;
 }
 
-bool all_finite(const SolveResult& r) {
-  return r.positions.allFinite() && r.forces.allFinite();
+void validate_settings(const SolveOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw InputError("options", "settings", why);
 }
 
-// The stress QP at the part's own geometry; Converged when it verifies.
-SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& options) {
+bool has_support(const Structure& part) {
+  return std::any_of(part.fixed.begin(), part.fixed.end(), [](bool f) { return f; });
+}
+
+// The internal forces of a part sum to zero, so a net weight on a part without
+// supports can never be balanced: a proof of infeasibility.
+bool unsupported_weight(const Structure& part) {
+  if (!part.has_gravity() || has_support(part)) return false;
+  const Eigen::Matrix3Xd loads = part.gravity_loads();
+  return loads.rowwise().sum().norm() > 0.0;
+}
+
+SolveResult unchanged_part(const Structure& part, Eigen::VectorXd forces, Status status, std::string message) {
   SolveResult r;
   r.positions = part.positions;
+  r.forces = std::move(forces);
+  r.status = status;
+  r.message = std::move(message);
+  return r;
+}
+
+// The stress QP at the part's own geometry: Converged when it verifies,
+// Infeasible when the QP's optimum leaves a residual (a proof at this
+// geometry), MaxIterations when the QP stopped before certifying its optimum.
+SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& options) {
   const ForceScale scale = make_force_scale(part, options.margin_fraction);
   Equilibrium eq(part);
   eq.set_positions(part.positions);
   StressQp qp(eq, scale);
   const StressQpResult qr = qp.solve();
-  r.forces = qr.sigma;
+  const Verification v = verify(part, part.positions, qr.sigma, options.tolerance);
+  SolveResult r;
+  if (v.ok) {
+    r = unchanged_part(part, qr.sigma, Status::Converged, "already in equilibrium at the scene geometry");
+  } else if (qr.optimal) {
+    r = unchanged_part(part, qr.sigma, Status::Infeasible,
+                       "the scene geometry is not a tensegrity (the stress QP's optimum has relative residual " +
+                           std::to_string(v.relative_residual) + ")");
+  } else {
+    r = unchanged_part(part, qr.sigma, Status::MaxIterations,
+                       "the stress QP stopped before certifying its optimum (relative residual " +
+                           std::to_string(v.relative_residual) + ", KKT error " + std::to_string(qr.kkt_error) + ")");
+  }
   r.stats.iterations = qr.iterations;
-  const Verification v = verify(part, r.positions, r.forces, options.tolerance);
-  r.status = v.ok ? Status::Converged : Status::Infeasible;
-  r.message = v.ok ? "already in equilibrium at the scene geometry"
-                   : "the scene geometry is not a tensegrity (stress QP relative residual " +
-                         std::to_string(v.relative_residual) + ")";
+  TracePoint start;
+  start.relative_residual = v.relative_residual;
+  start.residual = v.residual;
+  r.trace.push_back(start);
   return r;
 }
 
-// Part-by-part loop shared by solve_scene and solve_forces_only.
+// A part's result that is missing, mis-sized or not finite becomes a
+// NumericalError at the part's input.
+void guard_shape(const Structure& part, SolveResult& r) {
+  const bool shaped = r.positions.cols() == part.num_nodes() && r.forces.size() == part.num_elements();
+  if (shaped && r.positions.allFinite() && r.forces.allFinite()) return;
+  r.status = Status::NumericalError;
+  r.message = "backend returned non-finite or missing values" + (r.message.empty() ? "" : " (" + r.message + ")");
+  r.positions = part.positions;
+  r.forces = Eigen::VectorXd::Zero(part.num_elements());
+}
+
+// Runs the solve of every part and merges the parts into one result.
 template <class PartSolve>
 SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, PartSolve part_solve) {
   const auto t0 = Clock::now();
-  std::string why;
-  if (!options.IsValid(&why)) throw InputError("command line", "options", why);
-
   SolveResult total;
   total.status = Status::Converged;
   total.positions = scene.positions;
@@ -90,27 +138,19 @@ SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, 
   for (std::size_t k = 0; k < partition.parts.size(); ++k) {
     const Part& part = partition.parts[k];
     SolveOptions part_options = options;
-    part_options.time_limit_s = std::max(1e-3, options.time_limit_s - seconds_since(t0));
+    part_options.time_limit_s = std::max(kSmallestPartTimeLimit, options.time_limit_s - seconds_since(t0));
     const double part_start = seconds_since(t0);
     SolveResult r;
     try {
       r = part_solve(part.structure, part_options);
     } catch (const InputError&) {
-      throw;  // bad options are the caller's error, not a solver outcome
+      throw;  // bad settings are the caller's error, not a solver outcome
     } catch (const std::exception& e) {
       r = SolveResult{};
       r.status = Status::NumericalError;
       r.message = std::string("backend failed: ") + e.what();
     }
-    const bool shaped = r.positions.cols() == part.structure.num_nodes() &&
-                        r.forces.size() == part.structure.num_elements();
-    if (!shaped || !all_finite(r)) {
-      r.status = Status::NumericalError;
-      r.message = "backend returned non-finite or missing values" +
-                  (r.message.empty() ? std::string() : " (" + r.message + ")");
-      r.positions = part.structure.positions;
-      r.forces = Eigen::VectorXd::Zero(part.structure.num_elements());
-    }
+    guard_shape(part.structure, r);
     for (int i = 0; i < part.structure.num_nodes(); ++i)
       if (!part.structure.fixed[i]) total.positions.col(part.nodes[i]) = r.positions.col(i);
     for (int e = 0; e < part.structure.num_elements(); ++e) total.forces[part.elements[e]] = r.forces[e];
@@ -127,6 +167,7 @@ SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, 
       p.seconds += part_start;
       total.trace.push_back(p);
     }
+    total.details.insert(total.details.end(), r.details.begin(), r.details.end());
   }
 
   const Verification v = verify(scene, total.positions, total.forces, options.tolerance);
@@ -135,9 +176,10 @@ SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, 
   total.stats.relative_residual = v.relative_residual;
   total.stats.geometry_change = v.geometry_change;
   if (total.status == Status::Converged && !v.ok) {
-    // Never call a result converged that the independent check rejects.
-    total.status = v.all_finite ? Status::MaxIterations : Status::NumericalError;
-    messages += (messages.empty() ? "" : "; ") + std::string("verification failed:");
+    // Never call a result converged that the independent check rejects; no
+    // budget ran out, so it is the backend's accuracy that failed.
+    total.status = Status::NumericalError;
+    messages += (messages.empty() ? "" : "; ") + std::string("the independent verification rejected the result:");
     for (const auto& p : v.problems) messages += " " + p;
   }
   total.message = messages.empty() ? std::string(to_string(total.status)) : messages;
@@ -146,30 +188,50 @@ SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, 
 
 }  // namespace
 
-SolveResult solve_forces_only(const Structure& scene, const SolveOptions& options) {
-  return solve_by_parts(scene, options, forces_at_own_geometry);
+bool SolveOptions::IsValid(std::string* why) const {
+  auto fail = [&](const char* reason) {
+    if (why) *why = reason;
+    return false;
+  };
+  if (!(std::isfinite(tolerance) && tolerance > 0.0)) return fail("tolerance must be a finite number > 0");
+  if (max_iterations < 0) return fail("max_iterations must be >= 0 (0: the backend's default)");
+  if (!(time_limit_s > 0.0) || std::isnan(time_limit_s)) return fail("time_limit_s must be > 0");
+  if (!(std::isfinite(margin_fraction) && margin_fraction > 0.0 && margin_fraction < 1.0))
+    return fail("margin_fraction must be in (0, 1)");
+  return true;
 }
 
-SolveResult solve_scene(const Solver& solver, const Structure& scene, const SolveOptions& options) {
-  solver.check_options(options);
+void Solver::ValidateOptions(const SolveOptions& options) const {
+  validate_settings(options);
+  ParseOptions(options.backend_options);
+}
+
+SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, const DriverControls& controls) const {
+  validate_settings(options);
+  const std::shared_ptr<const void> parsed = ParseOptions(options.backend_options);
   return solve_by_parts(scene, options, [&](const Structure& part, const SolveOptions& part_options) {
-    if (part_options.skip_if_in_equilibrium) {
+    if (unsupported_weight(part))
+      return unchanged_part(part, reference_forces(part, make_force_scale(part, part_options.margin_fraction)),
+                            Status::Infeasible, "gravity acts on a part without fixed nodes: no equilibrium exists");
+    Eigen::VectorXd initial_forces;
+    if (controls.skip_if_in_equilibrium) {
       SolveResult shortcut = forces_at_own_geometry(part, part_options);
-      if (shortcut.status == Status::Converged) {
-        TracePoint p;
-        p.iteration = 0;
-        p.relative_residual = verify(part, shortcut.positions, shortcut.forces).relative_residual;
-        shortcut.trace.push_back(p);
-        return shortcut;
-      }
-      if (shortcut.forces.size() == part.num_elements() && shortcut.forces.allFinite()) {
-        SolveOptions warm = part_options;
-        warm.initial_forces = std::move(shortcut.forces);
-        return solver.solve_part(part, warm);
-      }
+      if (shortcut.status == Status::Converged) return shortcut;
+      if (shortcut.forces.size() == part.num_elements() && shortcut.forces.allFinite())
+        initial_forces = std::move(shortcut.forces);
     }
-    return solver.solve_part(part, part_options);
+    return DoSolve(PartProblem{part, part_options, initial_forces}, parsed.get());
   });
+}
+
+SolveResult solve_scene(const Solver& solver, const Structure& scene, const SolveOptions& options,
+                        const DriverControls& controls) {
+  return solver.Solve(scene, options, controls);
+}
+
+SolveResult solve_forces_only(const Structure& scene, const SolveOptions& options) {
+  validate_settings(options);
+  return solve_by_parts(scene, options, forces_at_own_geometry);
 }
 
 Solution to_solution(const SolveResult& r, const Structure& scene, std::string_view solver) {
@@ -182,6 +244,10 @@ Solution to_solution(const SolveResult& r, const Structure& scene, std::string_v
   s.stats = r.stats;
   if (!r.message.empty()) s.extra["message"] = r.message;
   if (r.native_code != 0) s.extra["native_code"] = r.native_code;
+  nlohmann::json details = nlohmann::json::array();
+  for (const auto& d : r.details)
+    if (d) details.push_back(d->to_json());
+  if (!details.empty()) s.extra["details"] = details.size() == 1 ? details.front() : details;
   return s;
 }
 

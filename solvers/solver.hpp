@@ -1,11 +1,20 @@
 #pragma once
-// One backend interface (after Drake's solvers/ and Ceres): a plain options
-// struct with documented defaults, one result type with a typed status, a
-// message, the native solver code and a per-iteration trace. Solver library
-// headers (Ipopt, NLopt) never appear here.
+// Form finding behind one interface (after Drake's solvers/ and Ceres).
+//
+// A backend is a Solver. Callers use the non-virtual Solver::Solve, which
+// validates the settings and parses the backend's options once, splits the
+// scene into connected parts, runs the shared prechecks (gravity on a part
+// without supports: infeasible; a part already in equilibrium: returned
+// unchanged), calls the backend's protected DoSolve on every other part,
+// merges, verifies the merged result once with model/verify and maps the
+// outcome to one Status. Backends never see scenes, only parts.
+//
+// Units: positions in m, forces in N (positive = tension), times in s.
+// Solver library headers (Ipopt, NLopt) never appear here.
 #include <Eigen/Core>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -19,34 +28,37 @@ namespace tensegrity {
 // Iteration budget of a backend when SolveOptions::max_iterations is 0.
 inline constexpr int kDefaultIterationBudget = 2000;
 
+// Backend-specific `key=value` settings, parsed by each backend into its own
+// typed options struct.
+using OptionPairs = std::map<std::string, std::string>;
+
+// Settings of a solve, the same for every backend.
 struct SolveOptions {
-  double tolerance = 1e-8;        // relative residual for `converged` (CONTRACT.md)
+  double tolerance = 1e-8;        // relative residual for `converged`
   // Backend iterations (outer iterations for alternating); 0: the backend's
-  // own default (iteration_budget), unlike the 0 = "none" of the budgets in
-  // the backends' own option structs.
+  // own default (iteration_budget).
   int max_iterations = 0;
-  double time_limit_s = 120.0;    // wall-clock budget per solve
-  double margin_fraction = 1e-3;  // sign margin as a fraction of F0 (force_scale.hpp)
+  double time_limit_s = 120.0;    // wall-clock budget of the whole solve
+  double margin_fraction = 1e-3;  // sign margin as a fraction of F0 (formulations/force_scale.hpp)
   bool verbose = false;           // let the backend print its own log to stderr
-  bool skip_if_in_equilibrium = true;  // stress QP first; return unchanged geometry if it verifies
-  // Backend-specific `--option key=value` pairs; each backend rejects unknown keys.
-  std::map<std::string, std::string> backend_options;
-  // max_iterations, or `backend_default` when it is 0 (kDefaultIterationBudget
-  // for every backend but the faithful alternating scheme, whose outer
-  // iterations are cheap and unbounded in the paper: alternating_solver.hpp).
+  OptionPairs backend_options;    // parsed and validated by the backend
+
+  // max_iterations, or `backend_default` when it is 0.
   int iteration_budget(int backend_default) const {
     return max_iterations > 0 ? max_iterations : backend_default;
   }
-  // Forces (N) of the stress QP at the part's input geometry, when the driver
-  // has already solved it (its equilibrium shortcut): backends start from them
-  // instead of solving the same QP again. Empty: the backend solves it.
-  Eigen::VectorXd initial_forces;
-
-  // False with a reason when a value is out of range.
+  // False with the reason when a value is out of range.
   bool IsValid(std::string* why = nullptr) const;
 };
 
-// One record per backend iteration: for run-time-against-error curves.
+// Switches of the scene driver (not settings of the method).
+struct DriverControls {
+  // Solve the stress QP first and return a part unchanged when its geometry
+  // already is a tensegrity (off for benchmarks that time the method itself).
+  bool skip_if_in_equilibrium = true;
+};
+
+// One record per backend iteration; iteration 0 is the starting point.
 struct TracePoint {
   double seconds = 0.0;            // since the start of the solve
   int iteration = 0;
@@ -54,47 +66,92 @@ struct TracePoint {
   double residual = 0.0;           // max free-node net force (N)
   double relative_residual = 0.0;
   double geometry_change = 0.0;    // m
-  double objective = 0.0;          // the backend's own objective
+  double objective = 0.0;          // the backend's own objective (see its header)
+};
+
+// What a backend reports beyond the common fields (counts of non-optimal
+// inner solves, restarts used, native codes, ...). Written to the solution
+// file under "details".
+struct SolverDetails {
+  virtual ~SolverDetails() = default;
+  virtual nlohmann::json to_json() const = 0;
 };
 
 struct SolveResult {
   Status status = Status::NumericalError;
   std::string message;             // why it stopped, in words
   int native_code = 0;             // the backend library's own return code
-  Eigen::Matrix3Xd positions;      // 3 x n
+  Eigen::Matrix3Xd positions;      // 3 x n (m)
   Eigen::VectorXd forces;          // m (N)
   SolutionStats stats;
   std::vector<TracePoint> trace;
+  // Per part, in part order (null where a part needed no backend run).
+  std::vector<std::shared_ptr<const SolverDetails>> details;
 };
 
 class Solver {
  public:
   virtual ~Solver() = default;
   virtual std::string_view name() const = 0;
-  // Form-finds a connected part (the driver splits scenes into parts and
-  // handles equilibrium shortcuts and verification; see solve_scene).
-  virtual SolveResult solve_part(const Structure& part, const SolveOptions& options) const = 0;
-  // Throws InputError when a backend option is unknown or malformed.
-  virtual void check_options(const SolveOptions& options) const;
+
+  // Form-finds `scene`. Throws InputError (OptionError for backend options)
+  // for invalid settings; every solver outcome is a status, never an exception.
+  SolveResult Solve(const Structure& scene, const SolveOptions& options, const DriverControls& controls = {}) const;
+
+  // Throws what Solve would throw for these settings, without solving.
+  void ValidateOptions(const SolveOptions& options) const;
+
+ protected:
+  // One connected part, its settings and the driver's stress-QP forces at the
+  // part's input geometry (empty when the driver did not solve it).
+  struct PartProblem {
+    const Structure& part;
+    const SolveOptions& options;
+    const Eigen::VectorXd& initial_forces;  // N
+  };
+
+  // The backend's options, parsed from key=value pairs and validated
+  // (OptionError naming the option and its valid range).
+  virtual std::shared_ptr<const void> ParseOptions(const OptionPairs& pairs) const = 0;
+  // Solves one part. Positions and forces must be sized to the part; the
+  // driver verifies them. Converged is a claim the driver checks.
+  virtual SolveResult DoSolve(const PartProblem& problem, const void* parsed_options) const = 0;
 };
 
-// Registry by name: "alternating", "alternating-gn", "ipopt", "nlopt", ...
+// A backend whose options are the struct `Options`, which provides
+// `static Options FromPairs(const OptionPairs&)` (OptionError for unknown keys
+// and malformed or out-of-range values) and `bool IsValid(std::string*) const`.
+template <class Options>
+class SolverWithOptions : public Solver {
+ protected:
+  virtual SolveResult DoSolve(const PartProblem& problem, const Options& options) const = 0;
+
+ private:
+  std::shared_ptr<const void> ParseOptions(const OptionPairs& pairs) const final {
+    return std::make_shared<const Options>(Options::FromPairs(pairs));
+  }
+  SolveResult DoSolve(const PartProblem& problem, const void* parsed_options) const final {
+    return DoSolve(problem, *static_cast<const Options*>(parsed_options));
+  }
+};
+
+// Registry by name: "alternating", "alternating-gn", "ipopt", "nlopt".
+// Throws InputError for an unknown name.
 std::unique_ptr<Solver> make_solver(std::string_view name);
 std::vector<std::string> solver_names();
 std::string default_solver_name();
 
-// Solves a whole scene with one backend: splits it into independent parts,
-// skips parts already in equilibrium, runs the backend on the rest, merges the
-// parts, and re-verifies the merged result with model/verify before calling it
-// converged. Never throws on solver failure; the status says what happened.
-SolveResult solve_scene(const Solver& solver, const Structure& scene, const SolveOptions& options);
+// The same as solver.Solve(scene, options, controls).
+SolveResult solve_scene(const Solver& solver, const Structure& scene, const SolveOptions& options,
+                        const DriverControls& controls = {});
 
-// Solves only the stress QP (Eq. 4) at the scene's own geometry, part by part:
-// Converged if the scene already is a tensegrity, else Infeasible. The
-// positions are the scene's.
+// The stress QP (Eq. 4) alone at the scene's own geometry, part by part:
+// Converged when the scene already is a tensegrity; Infeasible when the QP's
+// optimum has a positive residual; otherwise the QP's own stop (e.g.
+// MaxIterations). The positions are the scene's.
 SolveResult solve_forces_only(const Structure& scene, const SolveOptions& options);
 
-// Solution record for the file (scene name, solver name, stats).
+// Solution record for the file (scene name, solver name, stats, message, details).
 Solution to_solution(const SolveResult& r, const Structure& scene, std::string_view solver);
 
 }  // namespace tensegrity

@@ -7,7 +7,7 @@
 #include <map>
 
 #include "model/verify.hpp"
-#include "scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {
@@ -20,7 +20,7 @@ struct Case {
 
 std::vector<Case> all_cases() {
   std::vector<Case> cases;
-  const int n = static_cast<int>(testing::backend_suite_scenes().size());
+  const int n = static_cast<int>(scenes::backend_suite_scenes().size());
   for (const auto& s : solver_names())
     for (int k = 0; k < n; ++k) cases.push_back({s, k});
   return cases;
@@ -30,7 +30,7 @@ class BackendSuite : public ::testing::TestWithParam<Case> {};
 
 TEST_P(BackendSuite, ConvergesAndVerifies) {
   const Case c = GetParam();
-  const Structure scene = testing::backend_suite_scenes()[c.scene];
+  const Structure scene = scenes::backend_suite_scenes()[c.scene];
   const auto solver = make_solver(c.solver);
   SolveOptions options;
   options.time_limit_s = 60.0;
@@ -59,10 +59,10 @@ TEST_P(BackendSuite, ConvergesAndVerifies) {
 TEST(BackendSuiteEquilibrium, SceneAlreadyInEquilibriumIsReturnedUnchanged) {
   for (const auto& name : solver_names()) {
     const auto solver = make_solver(name);
-    for (const Structure& scene : {testing::prism(7), testing::octahedron()}) {
+    for (const Structure& scene : {scenes::prism(7), scenes::octahedron()}) {
       SolveOptions options;
-      options.skip_if_in_equilibrium = false;  // the backend itself must not move it
-      const SolveResult r = solve_scene(*solver, scene, options);
+      // Without the driver's shortcut: the backend itself must not move it.
+      const SolveResult r = solver->Solve(scene, options, DriverControls{false});
       ASSERT_EQ(r.status, Status::Converged) << name << " " << scene.name << ": " << r.message;
       EXPECT_LE(r.stats.geometry_change, 1e-10 * scene.mean_element_length()) << name << " " << scene.name;
     }
@@ -70,7 +70,7 @@ TEST(BackendSuiteEquilibrium, SceneAlreadyInEquilibriumIsReturnedUnchanged) {
 }
 
 std::string case_name(const ::testing::TestParamInfo<Case>& info) {
-  std::string s = info.param.solver + "_" + testing::backend_suite_scenes()[info.param.scene].name;
+  std::string s = info.param.solver + "_" + scenes::backend_suite_scenes()[info.param.scene].name;
   for (char& ch : s)
     if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
   return s;
@@ -88,7 +88,7 @@ TEST(BackendCrossCheck, IpoptGeometryChangeIsNeverLargerThanTheApproximations) {
   const auto names = solver_names();
   if (std::find(names.begin(), names.end(), "ipopt") == names.end()) GTEST_SKIP() << "no ipopt backend";
   const auto ipopt = make_solver("ipopt");
-  for (const Structure& scene : testing::backend_suite_scenes()) {
+  for (const Structure& scene : scenes::backend_suite_scenes()) {
     const SolveResult best = solve_scene(*ipopt, scene, {});
     ASSERT_EQ(best.status, Status::Converged) << scene.name;
     for (const auto& name : names) {

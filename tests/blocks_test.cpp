@@ -10,7 +10,7 @@
 
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
-#include "formulations/stress_qp.hpp"
+#include "kernels/stress_qp.hpp"
 #include "model/blocks.hpp"
 #include "model/errors.hpp"
 #include "model/verify.hpp"

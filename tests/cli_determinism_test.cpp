@@ -14,7 +14,7 @@
 
 #include "model/scene_io.hpp"
 #include "process_runner.hpp"
-#include "scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {
@@ -76,8 +76,8 @@ class ScopedEnv {
 
 // Perturbed so that every backend iterates (an exact tensegrity returns at once).
 std::vector<Structure> scenes() {
-  return {testing::perturbed(testing::prism(5), 0.05, 3u), testing::perturbed(testing::prism(4, 0.0, true), 0.05, 7u),
-          testing::perturbed(testing::octahedron(), 0.03, 11u)};
+  return {scenes::perturbed(scenes::prism(5), 0.05, 3u), scenes::perturbed(scenes::prism(4, 0.0, true), 0.05, 7u),
+          scenes::perturbed(scenes::octahedron(), 0.03, 11u)};
 }
 
 TEST_F(CliDeterminism, EveryBackendGivesTheSameFileTwice) {

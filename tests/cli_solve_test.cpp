@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "model/scene_io.hpp"
-#include "scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {
@@ -58,7 +58,7 @@ TEST_F(CliSolve, SolversListsEveryRegisteredBackend) {
 }
 
 TEST_F(CliSolve, ForcesConvergedOnAPrismInfeasibleWhenTwisted) {
-  const std::string good = write_scene(testing::prism(5));
+  const std::string good = write_scene(scenes::prism(5));
   const std::string sol = (dir / "good.json").string();
   EXPECT_EQ(run_cli("forces " + good + " --out " + sol).status, 0);
   EXPECT_EQ(run_cli("check " + good + " " + sol).status, 0);
@@ -67,7 +67,7 @@ TEST_F(CliSolve, ForcesConvergedOnAPrismInfeasibleWhenTwisted) {
   EXPECT_LE(j["stats"]["relative_residual"].get<double>(), 1e-12);
   EXPECT_EQ(j["stats"]["geometry_change"].get<double>(), 0.0);
 
-  const std::string bad = write_scene(testing::prism(5, 5.0));
+  const std::string bad = write_scene(scenes::prism(5, 5.0));
   const std::string sol2 = (dir / "bad.json").string();
   EXPECT_EQ(run_cli("forces " + bad + " --out " + sol2).status, 1);
   const auto j2 = nlohmann::json::parse(std::ifstream(sol2));
@@ -77,7 +77,7 @@ TEST_F(CliSolve, ForcesConvergedOnAPrismInfeasibleWhenTwisted) {
 }
 
 TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
-  const std::string scene = write_scene(testing::perturbed(testing::prism(6, 0.0, true), 0.05, 1u));
+  const std::string scene = write_scene(scenes::perturbed(scenes::prism(6, 0.0, true), 0.05, 1u));
   for (const auto& name : solver_names()) {
     const std::string sol = (dir / (name + ".json")).string();
     const std::string trace = (dir / (name + ".csv")).string();
@@ -98,7 +98,7 @@ TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
 }
 
 TEST_F(CliSolve, SolveToStandardOutputAndTamperedSolutionFailsTheCheck) {
-  const std::string scene = write_scene(testing::prism(4, 10.0));
+  const std::string scene = write_scene(scenes::prism(4, 10.0));
   const ProcessResult r = run_cli("solve " + scene);
   ASSERT_EQ(r.status, 0);
   auto j = nlohmann::json::parse(r.out);
@@ -109,7 +109,7 @@ TEST_F(CliSolve, SolveToStandardOutputAndTamperedSolutionFailsTheCheck) {
 }
 
 TEST_F(CliSolve, BadToleranceAndUnknownSolverAreUsageErrors) {
-  const std::string scene = write_scene(testing::prism(3));
+  const std::string scene = write_scene(scenes::prism(3));
   const std::string out = (dir / "never.json").string();
   for (const char* args : {" --tol 0", " --tol -1", " --tol nan", " --tol inf", " --solver nosuch",
                            " --option nosuchkey=1"}) {

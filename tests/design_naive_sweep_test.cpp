@@ -2,7 +2,7 @@
 // its designed shape under gravity, the paper's constant-fraction baseline
 // does not for any fraction of a sweep; and the force-cap LP that explains an
 // infeasible design.
-#include "solvers/naive_sweep.hpp"
+#include "design/naive_sweep.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +13,7 @@
 #include "formulations/stiffness_qp.hpp"
 #include "model/scene_io.hpp"
 #include "simulation_fixtures.hpp"
-#include "solvers/force_cap.hpp"
+#include "design/force_cap.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {

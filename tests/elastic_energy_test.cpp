@@ -9,7 +9,7 @@
 #include <cmath>
 #include <random>
 
-#include "formulations/rest_lengths.hpp"
+#include "design/rest_lengths.hpp"
 #include "model/reference_scenes.hpp"
 #include "simulation_fixtures.hpp"
 

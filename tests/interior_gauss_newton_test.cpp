@@ -3,7 +3,7 @@
 // its dense formula, and the attempt itself on perturbed prisms and on the
 // 80-strut / 500-cable tower (converged, verified, forces strictly inside
 // their bounds, geometry change no larger than the perturbation).
-#include "solvers/interior_gauss_newton.hpp"
+#include "solvers/alternating/interior_gauss_newton.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,15 +13,15 @@
 #include <string>
 #include <vector>
 
-#include "bench/large_scenes.hpp"
+#include "scenes/towers.hpp"
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/verify.hpp"
-#include "solvers/alternating_solver.hpp"
-#include "solvers/block_cholesky.hpp"
-#include "solvers/normal_matrix.hpp"
+#include "solvers/alternating/alternating_solver.hpp"
+#include "kernels/block_cholesky.hpp"
+#include "kernels/normal_matrix.hpp"
 
 namespace tensegrity {
 namespace {
@@ -84,7 +84,7 @@ TEST(BlockCholesky, SolvesLikeDenseCholesky) {
 TEST(NormalMatrix, MatchesItsDenseFormula) {
   for (bool gravity : {false, true}) {
     SCOPED_TRACE(gravity ? "gravity tower" : "tower");
-    const Structure s = bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", gravity);
+    const Structure s = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", gravity);
     Equilibrium eq(s);
     const ForceScale scale = make_force_scale(s, 1e-3);
     std::mt19937 rng(5);
@@ -122,8 +122,8 @@ TEST(InteriorGaussNewton, TowerConvergesCloserThanItsPerturbation) {
   const std::string data = std::string(TENSEGRITY_SOURCE_DIR) + "/data";
   for (bool gravity : {false, true}) {
     SCOPED_TRACE(gravity ? "gravity tower" : "tower");
-    const Structure equilibrium = bench::tower_equilibrium(data, gravity);
-    const Structure scene = bench::perturbed_tower(data, gravity);
+    const Structure equilibrium = scenes::tower_equilibrium(data, gravity);
+    const Structure scene = scenes::perturbed_tower(data, gravity);
     const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, InteriorGaussNewtonOptions{});
     ASSERT_EQ(r.status, Status::Converged) << r.message;
     const Verification v = verify(scene, r.positions, r.forces, 1e-8);
@@ -168,7 +168,7 @@ TEST(InteriorGaussNewton, GravityWithoutSupportsIsInfeasible) {
 }
 
 TEST(InteriorGaussNewton, BudgetIsAStatusNotAnAnswer) {
-  const Structure scene = bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
+  const Structure scene = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
   InteriorGaussNewtonOptions o;
   o.max_iterations = 3;
   const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, o);
@@ -188,14 +188,14 @@ TEST(InteriorGaussNewton, OptionsAreChecked) {
   EXPECT_FALSE(o.IsValid());
   SolveOptions options;
   options.backend_options = {{"interior_iterations", "7"}, {"interior_force_weight", "300"}};
-  const AlternatingOptions parsed = read_alternating_options(options, true);
+  const AlternatingOptions parsed = GaussNewtonAlternatingOptions::FromPairs(options.backend_options);
   EXPECT_EQ(parsed.interior.max_iterations, 7);
   EXPECT_EQ(parsed.interior.force_weight, 300.0);
   options.backend_options = {{"interior_boundary_fraction", "1.5"}};
-  EXPECT_THROW(read_alternating_options(options, true), InputError);
+  EXPECT_THROW(GaussNewtonAlternatingOptions::FromPairs(options.backend_options), InputError);
   // The faithful variant has no interior attempt.
   options.backend_options = {{"interior_iterations", "7"}};
-  EXPECT_THROW(read_alternating_options(options, false), InputError);
+  EXPECT_THROW(FaithfulAlternatingOptions::FromPairs(options.backend_options), InputError);
 }
 
 }  // namespace

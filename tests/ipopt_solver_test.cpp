@@ -1,5 +1,5 @@
 // The `ipopt` backend (solvers/ipopt_solver.hpp): Eq. 5 solved whole.
-#include "solvers/ipopt_solver.hpp"
+#include "solvers/ipopt/ipopt_solver.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,22 +8,22 @@
 
 #include "model/errors.hpp"
 #include "model/verify.hpp"
-#include "scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 
 namespace tensegrity {
 namespace {
 
-using tensegrity::testing::octahedron;
-using tensegrity::testing::perturbed;
-using tensegrity::testing::prism;
+using tensegrity::scenes::octahedron;
+using tensegrity::scenes::perturbed;
+using tensegrity::scenes::prism;
 
 double scene_size(const Structure& s) {
   return (s.positions.rowwise().maxCoeff() - s.positions.rowwise().minCoeff()).norm();
 }
 
+// The driver shortcut is switched off at each call (DriverControls{false}).
 SolveOptions no_shortcut() {
   SolveOptions o;
-  o.skip_if_in_equilibrium = false;
   return o;
 }
 
@@ -42,7 +42,7 @@ TEST(IpoptSolver, SceneInEquilibriumDoesNotMove) {
   scenes.push_back(octahedron());
   const IpoptSolver solver;
   for (const Structure& s : scenes) {
-    const SolveResult r = solver.solve_part(s, no_shortcut());
+    const SolveResult r = solver.Solve(s, no_shortcut(), DriverControls{false});
     const Verification v = verify(s, r.positions, r.forces, 1e-8);
     std::printf("[ %s ] geometry change / size %.2e, iterations %d\n", s.name.c_str(),
                 v.geometry_change / scene_size(s), r.stats.iterations);
@@ -74,7 +74,7 @@ std::vector<Structure> perturbed_scenes() {
 TEST(IpoptSolver, PerturbedScenesConvergeAndVerify) {
   const IpoptSolver solver;
   for (const Structure& s : perturbed_scenes()) {
-    const SolveResult r = solver.solve_part(s, no_shortcut());
+    const SolveResult r = solver.Solve(s, no_shortcut(), DriverControls{false});
     const Verification v = verify(s, r.positions, r.forces, 1e-8);
     std::printf("[ %s ] %s, %d iterations, relative residual %.1e, geometry change %.4g\n", s.name.c_str(),
                 std::string(to_string(r.status)).c_str(), r.stats.iterations, v.relative_residual,
@@ -91,7 +91,7 @@ TEST(IpoptSolver, PerturbedScenesConvergeAndVerify) {
 
 // Through the shared driver too: the same answer, verified on the whole scene.
 TEST(IpoptSolver, SolveSceneHandlesTwoParts) {
-  const Structure s = tensegrity::testing::two_copies(prism(4, 10.0), Eigen::Vector3d(4.0, 0.0, 0.0));
+  const Structure s = scenes::two_copies(prism(4, 10.0), Eigen::Vector3d(4.0, 0.0, 0.0));
   const auto solver = make_solver("ipopt");
   const SolveResult r = solve_scene(*solver, s, SolveOptions{});
   EXPECT_EQ(r.status, Status::Converged) << r.message;
@@ -111,11 +111,11 @@ Structure scaled(Structure s, double factor) {
 TEST(IpoptSolver, ScaleInvariance) {
   const IpoptSolver solver;
   for (const Structure& base : {perturbed(prism(6), 0.05, 7u), perturbed(octahedron(true), 0.05, 8u)}) {
-    const SolveResult r1 = solver.solve_part(base, no_shortcut());
+    const SolveResult r1 = solver.Solve(base, no_shortcut(), DriverControls{false});
     ASSERT_EQ(r1.status, Status::Converged) << r1.message;
     for (double factor : {1e-3, 1e3}) {
       const Structure s = scaled(base, factor);
-      const SolveResult r = solver.solve_part(s, no_shortcut());
+      const SolveResult r = solver.Solve(s, no_shortcut(), DriverControls{false});
       ASSERT_EQ(r.status, Status::Converged) << base.name << " x" << factor << ": " << r.message;
       EXPECT_TRUE(verify(s, r.positions, r.forces, 1e-8).ok);
       const double position_error = (r.positions / factor - r1.positions).norm() / scene_size(base);
@@ -134,8 +134,8 @@ TEST(IpoptSolver, LimitedMemoryHessianConverges) {
   o.backend_options["hessian_approximation"] = "limited-memory";
   // Seed 3: L-BFGS stalls at the optimum into a restoration failure on ~1 seed in 10, which ones varies by compiler.
   const Structure s = perturbed(prism(4), 0.05, 3u);
-  const SolveResult r = solver.solve_part(s, o);
-  const SolveResult exact = solver.solve_part(s, no_shortcut());
+  const SolveResult r = solver.Solve(s, o, DriverControls{false});
+  const SolveResult exact = solver.Solve(s, no_shortcut(), DriverControls{false});
   EXPECT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_TRUE(verify(s, r.positions, r.forces, 1e-8).ok);
   // Both reach the same local optimum (same starting point, smooth problem).
@@ -148,20 +148,20 @@ TEST(IpoptSolver, OptionsPassThroughAndUnknownNamesAreRejected) {
   const IpoptSolver solver;
   SolveOptions o;
   o.backend_options = {{"tol", "1e-9"}, {"max_iter", "50"}, {"mu_strategy", "monotone"}};
-  EXPECT_NO_THROW(solver.check_options(o));
+  EXPECT_NO_THROW(solver.ValidateOptions(o));
   o.backend_options = {{"no_such_ipopt_option", "1"}};
-  EXPECT_THROW(solver.check_options(o), InputError);
+  EXPECT_THROW(solver.ValidateOptions(o), InputError);
   o.backend_options = {{"max_iter", "many"}};
-  EXPECT_THROW(solver.check_options(o), InputError);
+  EXPECT_THROW(solver.ValidateOptions(o), InputError);
   o.backend_options = {{"mu_strategy", "sometimes"}};
-  EXPECT_THROW(solver.check_options(o), InputError);
+  EXPECT_THROW(solver.ValidateOptions(o), InputError);
   o.backend_options = {{"tol", "-1"}};
-  EXPECT_THROW(solver.check_options(o), InputError);
+  EXPECT_THROW(solver.ValidateOptions(o), InputError);
 
   // max_iter passed through wins over max_iterations.
   SolveOptions budget = no_shortcut();
   budget.backend_options = {{"max_iter", "2"}};
-  const SolveResult r = solver.solve_part(perturbed(prism(6), 0.05, 10u), budget);
+  const SolveResult r = solver.Solve(perturbed(prism(6), 0.05, 10u), budget, DriverControls{false});
   EXPECT_EQ(r.status, Status::MaxIterations) << r.message;
   EXPECT_EQ(r.native_code, -1);  // Ipopt's Maximum_Iterations_Exceeded
   EXPECT_LE(r.stats.iterations, 2);
@@ -172,7 +172,7 @@ TEST(IpoptSolver, GravityWithoutSupportIsInfeasible) {
   p.n = 4;
   p.gravity = true;
   p.strut_mass = 0.1;  // no fixed node
-  const SolveResult r = IpoptSolver().solve_part(make_regular_prism(p), no_shortcut());
+  const SolveResult r = IpoptSolver().Solve(make_regular_prism(p), no_shortcut(), DriverControls{false});
   EXPECT_EQ(r.status, Status::Infeasible) << r.message;
   EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
 }
@@ -185,8 +185,8 @@ TEST(IpoptSolver, NeverMovesMoreThanTheAlternatingScheme) {
   const auto alternating = make_solver("alternating");
   const IpoptSolver ipopt;
   for (const Structure& s : perturbed_scenes()) {
-    const SolveResult ra = alternating->solve_part(s, no_shortcut());
-    const SolveResult ri = ipopt.solve_part(s, no_shortcut());
+    const SolveResult ra = alternating->Solve(s, no_shortcut(), DriverControls{false});
+    const SolveResult ri = ipopt.Solve(s, no_shortcut(), DriverControls{false});
     if (ra.status != Status::Converged) {
       std::printf("[ %s ] alternating did not converge (%s); skipped\n", s.name.c_str(), ra.message.c_str());
       continue;

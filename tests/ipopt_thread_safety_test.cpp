@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "model/reference_scenes.hpp"
-#include "solvers/ipopt_solver.hpp"
+#include "solvers/ipopt/ipopt_solver.hpp"
 
 namespace tensegrity {
 namespace {
@@ -35,11 +35,11 @@ TEST(IpoptThreadSafety, ConcurrentSolvesEqualSerialOnes) {
   const IpoptSolver solver;
   SolveOptions options;
   std::vector<SolveResult> serial, parallel(scenes.size());
-  for (const Structure& s : scenes) serial.push_back(solver.solve_part(s, options));
+  for (const Structure& s : scenes) serial.push_back(solver.Solve(s, options, DriverControls{false}));
   std::vector<std::thread> threads;
   for (int t = 0; t < 2; ++t)
     threads.emplace_back([&, t] {
-      for (std::size_t k = t; k < scenes.size(); k += 2) parallel[k] = solver.solve_part(scenes[k], options);
+      for (std::size_t k = t; k < scenes.size(); k += 2) parallel[k] = solver.Solve(scenes[k], options, DriverControls{false});
     });
   for (auto& th : threads) th.join();
   int converged = 0;

@@ -10,7 +10,7 @@
 #include <random>
 
 #include "formulations/force_scale.hpp"
-#include "scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 
 namespace tensegrity {
 namespace {
@@ -23,7 +23,7 @@ struct NamedScene {
 };
 
 std::vector<NamedScene> scenes() {
-  using namespace tensegrity::testing;
+  using namespace tensegrity::scenes;
   return {
       {"prism3-twist15", prism(3, 15.0)},
       {"prism5-twist-10", prism(5, -10.0)},
@@ -167,7 +167,7 @@ INSTANTIATE_TEST_SUITE_P(Scenes, NlpDerivatives, ::testing::Range(0, 6),
                          });
 
 TEST(MinimalGeometryChangeNlp, ObjectiveIsScaledDistanceAndConstraintsAreEquilibrium) {
-  const Structure s = tensegrity::testing::prism(4, 10.0);
+  const Structure s = scenes::prism(4, 10.0);
   const ForceScale scale = make_force_scale(s);
   MinimalGeometryChangeNlp nlp(s, scale);
   const Eigen::VectorXd sigma = reference_forces(s, scale);
@@ -197,7 +197,7 @@ TEST(MinimalGeometryChangeNlp, ObjectiveIsScaledDistanceAndConstraintsAreEquilib
 }
 
 TEST(MinimalGeometryChangeNlp, FixedNodesAreNotUnknowns) {
-  const Structure s = tensegrity::testing::prism(5, 0.0, true);
+  const Structure s = scenes::prism(5, 0.0, true);
   MinimalGeometryChangeNlp nlp(s, make_force_scale(s));
   EXPECT_EQ(nlp.num_positions(), 3 * 5);
   EXPECT_EQ(nlp.num_forces(), 20);

@@ -1,7 +1,7 @@
 // The `nlopt` backend: reference prisms and octahedra (exact, perturbed,
 // twisted, with gravity and fixed nodes) converge and verify; its algorithms,
 // options, status mapping and trace behave as documented.
-#include "solvers/nlopt_solver.hpp"
+#include "solvers/nlopt/nlopt_solver.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 
 #include "model/errors.hpp"
 #include "model/verify.hpp"
-#include "scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {
@@ -41,11 +41,11 @@ double mean_cable_force(const Structure& s, const Eigen::VectorXd& forces) {
 }
 
 std::vector<Structure> reference_scenes() {
-  std::vector<Structure> v = testing::backend_suite_scenes();
-  v.push_back(testing::prism(3, 5.0));
-  v.push_back(testing::prism(6, 15.0, true));
-  v.push_back(testing::perturbed(testing::prism(5), 0.01, 21u));
-  v.push_back(testing::perturbed(testing::octahedron(true), 0.01, 22u));
+  std::vector<Structure> v = scenes::backend_suite_scenes();
+  v.push_back(scenes::prism(3, 5.0));
+  v.push_back(scenes::prism(6, 15.0, true));
+  v.push_back(scenes::perturbed(scenes::prism(5), 0.01, 21u));
+  v.push_back(scenes::perturbed(scenes::octahedron(true), 0.01, 22u));
   return v;
 }
 
@@ -70,10 +70,10 @@ TEST(NloptSolver, ReferenceScenesConvergeAndVerify) {
 TEST(NloptSolver, ExactPrismStaysPutWithAnalyticForceDensities) {
   const NloptSolver solver;
   for (int n : {3, 5, 8}) {
-    const Structure scene = testing::prism(n);
+    const Structure scene = scenes::prism(n);
     SolveOptions o = options_with();
-    o.skip_if_in_equilibrium = false;  // the backend itself must not move it
-    const SolveResult r = solve_scene(solver, scene, o);
+    // Without the driver's shortcut: the backend itself must not move it.
+    const SolveResult r = solver.Solve(scene, o, DriverControls{false});
     expect_verified_equilibrium(scene, r);
     EXPECT_LE(r.stats.geometry_change, 1e-10);
     // Force densities (force / length): struts -1, verticals 1, rings 1/(2 sin(pi/n)).
@@ -90,7 +90,7 @@ TEST(NloptSolver, ExactPrismStaysPutWithAnalyticForceDensities) {
 
 TEST(NloptSolver, EveryAugmentedLagrangianVariantReachesTheSameGeometry) {
   const NloptSolver solver;
-  const Structure scene = testing::perturbed(testing::prism(4), 0.05, 31u);
+  const Structure scene = scenes::perturbed(scenes::prism(4), 0.05, 31u);
   const SolveResult reference = solve_scene(solver, scene, options_with());
   expect_verified_equilibrium(scene, reference);
   for (const char* algorithm : {"penalty-lbfgs", "auglag-eq-lbfgs", "al-tnewton"}) {
@@ -104,7 +104,7 @@ TEST(NloptSolver, EveryAugmentedLagrangianVariantReachesTheSameGeometry) {
 
 TEST(NloptSolver, SlsqpConvergesWhenFixedNodesRemoveTheRigidModes) {
   const NloptSolver solver;
-  const Structure scene = testing::perturbed(testing::prism(6, 0.0, true), 0.05, 6u);
+  const Structure scene = scenes::perturbed(scenes::prism(6, 0.0, true), 0.05, 6u);
   const SolveResult lbfgs = solve_scene(solver, scene, options_with());
   const SolveResult slsqp = solve_scene(solver, scene, options_with({{"algorithm", "slsqp"}}));
   expect_verified_equilibrium(scene, slsqp);
@@ -118,7 +118,7 @@ TEST(NloptSolver, MatchesIpoptGeometryChangeWhenAvailable) {
     GTEST_SKIP() << "ipopt backend not registered";
   const auto ipopt = make_solver("ipopt");
   const NloptSolver nlopt;
-  for (const Structure& scene : testing::backend_suite_scenes()) {
+  for (const Structure& scene : scenes::backend_suite_scenes()) {
     const SolveResult a = solve_scene(nlopt, scene, options_with());
     const SolveResult b = solve_scene(*ipopt, scene, options_with());
     if (b.status != Status::Converged) continue;
@@ -134,7 +134,7 @@ TEST(NloptSolver, GravityWithoutFixedNodesIsInfeasibleAtOnce) {
   p.gravity = true;
   p.strut_mass = 0.1;
   const Structure scene = make_regular_prism(p);
-  const SolveResult r = NloptSolver().solve_part(scene, options_with());
+  const SolveResult r = NloptSolver().Solve(scene, options_with(), DriverControls{false});
   EXPECT_EQ(r.status, Status::Infeasible) << r.message;
   EXPECT_TRUE(r.trace.empty());
   EXPECT_EQ(r.stats.geometry_change, 0.0);
@@ -142,20 +142,20 @@ TEST(NloptSolver, GravityWithoutFixedNodesIsInfeasibleAtOnce) {
 
 TEST(NloptSolver, BudgetsBecomeStatusesNotConvergence) {
   const NloptSolver solver;
-  const Structure scene = testing::perturbed(testing::octahedron(), 0.05, 3u);
-  const SolveResult few = solver.solve_part(scene, options_with({{"maxeval", "5"}}));
+  const Structure scene = scenes::perturbed(scenes::octahedron(), 0.05, 3u);
+  const SolveResult few = solver.Solve(scene, options_with({{"maxeval", "5"}}), DriverControls{false});
   EXPECT_EQ(few.status, Status::MaxIterations) << few.message;
   EXPECT_FALSE(verify(scene, few.positions, few.forces, 1e-8).ok);
 
   SolveOptions one_outer = options_with();
   one_outer.max_iterations = 1;
-  const SolveResult short_run = solver.solve_part(scene, one_outer);
+  const SolveResult short_run = solver.Solve(scene, one_outer, DriverControls{false});
   EXPECT_EQ(short_run.status, Status::MaxIterations) << short_run.message;
   EXPECT_EQ(short_run.stats.iterations, 1);
 
   SolveOptions instant = options_with();
   instant.time_limit_s = 1e-9;
-  const SolveResult late = solver.solve_part(scene, instant);
+  const SolveResult late = solver.Solve(scene, instant, DriverControls{false});
   EXPECT_EQ(late.status, Status::TimeLimit) << late.message;
   EXPECT_TRUE(late.positions.allFinite());
   EXPECT_TRUE(late.forces.allFinite());
@@ -163,9 +163,9 @@ TEST(NloptSolver, BudgetsBecomeStatusesNotConvergence) {
 
 TEST(NloptSolver, TraceIsMonotoneInTimeAndEvaluationsAndEndsAtTheResult) {
   const NloptSolver solver;
-  const Structure scene = testing::perturbed(testing::prism(6), 0.05, 17u);
+  const Structure scene = scenes::perturbed(scenes::prism(6), 0.05, 17u);
   for (const char* algorithm : {"al-lbfgs", "auglag-eq-lbfgs"}) {
-    const SolveResult r = solver.solve_part(scene, options_with({{"algorithm", algorithm}}));
+    const SolveResult r = solver.Solve(scene, options_with({{"algorithm", algorithm}}), DriverControls{false});
     ASSERT_EQ(r.status, Status::Converged) << r.message;
     ASSERT_FALSE(r.trace.empty());
     for (std::size_t k = 1; k < r.trace.size(); ++k) {
@@ -184,15 +184,15 @@ TEST(NloptSolver, TraceIsMonotoneInTimeAndEvaluationsAndEndsAtTheResult) {
 
 TEST(NloptSolver, RejectsUnknownAndMalformedOptions) {
   const NloptSolver solver;
-  EXPECT_THROW(solver.check_options(options_with({{"algorithm", "newton"}})), InputError);
-  EXPECT_THROW(solver.check_options(options_with({{"colour", "red"}})), InputError);
-  EXPECT_THROW(solver.check_options(options_with({{"ftol_rel", "-1"}})), InputError);
-  EXPECT_THROW(solver.check_options(options_with({{"maxeval", "many"}})), InputError);
-  EXPECT_THROW(solver.check_options(options_with({{"init", "zero"}})), InputError);
-  EXPECT_THROW(solver.check_options(options_with({{"penalty_growth", "1"}})), InputError);
+  EXPECT_THROW(solver.ValidateOptions(options_with({{"algorithm", "newton"}})), InputError);
+  EXPECT_THROW(solver.ValidateOptions(options_with({{"colour", "red"}})), InputError);
+  EXPECT_THROW(solver.ValidateOptions(options_with({{"ftol_rel", "-1"}})), InputError);
+  EXPECT_THROW(solver.ValidateOptions(options_with({{"maxeval", "many"}})), InputError);
+  EXPECT_THROW(solver.ValidateOptions(options_with({{"init", "zero"}})), InputError);
+  EXPECT_THROW(solver.ValidateOptions(options_with({{"penalty_growth", "1"}})), InputError);
   for (const auto& name : NloptSolver::algorithm_names())
-    EXPECT_NO_THROW(solver.check_options(options_with({{"algorithm", name}}))) << name;
-  EXPECT_NO_THROW(solver.check_options(options_with(
+    EXPECT_NO_THROW(solver.ValidateOptions(options_with({{"algorithm", name}}))) << name;
+  EXPECT_NO_THROW(solver.ValidateOptions(options_with(
       {{"xtol_rel", "1e-10"}, {"maxeval", "1000"}, {"penalty_initial", "1"}, {"init", "reference"}})));
 }
 

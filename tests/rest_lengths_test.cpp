@@ -1,5 +1,5 @@
 // Rest lengths from forces through a material, and their round trip.
-#include "formulations/rest_lengths.hpp"
+#include "design/rest_lengths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/verify.hpp"
-#include "solvers/stiffness_solver.hpp"
+#include "design/stiffness_solver.hpp"
 #include "tests/simulation_fixtures.hpp"
 
 namespace tensegrity {

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <string>
 
-#include "formulations/rest_lengths.hpp"
+#include "design/rest_lengths.hpp"
 #include "model/design.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"

@@ -1,7 +1,7 @@
 // Implicit Euler (Eq. 7) and the static relax: energy bookkeeping, damping,
 // designed shapes that hold under gravity, sag when turned, and sag less with
 // stiffer cords.
-#include "solvers/simulator.hpp"
+#include "simulation/simulator.hpp"
 
 #include <gtest/gtest.h>
 

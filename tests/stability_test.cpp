@@ -1,6 +1,6 @@
 // Stability: tangent stiffness eigenvalues (dense and shift-invert Lanczos),
 // the stable / marginal / unstable verdicts, and prestress stability.
-#include "solvers/stability.hpp"
+#include "simulation/stability.hpp"
 
 #include <gtest/gtest.h>
 

@@ -11,7 +11,7 @@
 #include "formulations/force_scale.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/verify.hpp"
-#include "solvers/stiffness_solver.hpp"
+#include "design/stiffness_solver.hpp"
 
 namespace tensegrity {
 namespace {

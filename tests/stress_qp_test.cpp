@@ -1,7 +1,7 @@
 // The stress QP (Eq. 4): analytic tensegrities, infeasible geometry, KKT
 // conditions against dense algebra, warm starts, and a brute-force
 // cross-check of the bound-constrained least-squares kernel.
-#include "formulations/stress_qp.hpp"
+#include "kernels/stress_qp.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <limits>
 #include <random>
 
-#include "bench/large_scenes.hpp"
+#include "scenes/towers.hpp"
 #include "formulations/components.hpp"
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
@@ -281,7 +281,7 @@ TEST(StressQp, WarmStartAfterSmallGeometryChange) {
 // forces were pinned, these solves crept along at a fixed projected gradient
 // into the 100-iteration cap (60-100 factorizations each, not optimal).
 TEST(StressQp, ProximalWarmSolvesOnThePerturbedTowerSettle) {
-  const Structure s = bench::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
+  const Structure s = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
   Equilibrium eq(s);
   const ForceScale scale = make_force_scale(s);
   StressQpOptions options;
@@ -323,11 +323,11 @@ TEST(StressQp, ProximalWarmSolvesOnThePerturbedTowerSettle) {
 // one per iteration: 80 iterations here, and ~450 (1200 factorizations) on
 // a 0.3 % perturbation of it, where Algorithm 1's warm solves hit the cap.
 TEST(StressQp, InteriorPointCrossoverFindsTheGravityTowersWeaklyActiveBounds) {
-  const Structure whole = bench::tower_equilibrium(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true);
+  const Structure whole = scenes::tower_equilibrium(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true);
   const Partition partition = split_into_parts(whole);
   ASSERT_EQ(partition.parts.size(), 1u);
   for (double noise : {0.0, 0.003}) {
-    const Structure s = bench::perturb_nodes(partition.parts[0].structure, noise, 1);
+    const Structure s = scenes::with_tower_noise(partition.parts[0].structure, noise, 1);
     Equilibrium eq(s);
     StressQp qp(eq, make_force_scale(s));
     const StressQpResult r = qp.solve();
@@ -350,10 +350,10 @@ TEST(StressQp, InteriorPointCrossoverFindsTheGravityTowersWeaklyActiveBounds) {
 // keeps every bound of the warm start: one factorization when the set holds.
 // (After moves of 1e-5 strut lengths the set itself changes: 4-15.)
 TEST(StressQp, WarmSolveAfterASmallMoveKeepsTheActiveSetInOneFactorization) {
-  const Structure whole = bench::tower_equilibrium(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true);
+  const Structure whole = scenes::tower_equilibrium(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true);
   const Partition partition = split_into_parts(whole);
   ASSERT_EQ(partition.parts.size(), 1u);
-  const Structure start = bench::perturb_nodes(partition.parts[0].structure, 0.003, 1);
+  const Structure start = scenes::with_tower_noise(partition.parts[0].structure, 0.003, 1);
   Equilibrium eq(start);
   StressQp qp(eq, make_force_scale(start));
   const StressQpResult first = qp.solve();
@@ -363,7 +363,7 @@ TEST(StressQp, WarmSolveAfterASmallMoveKeepsTheActiveSetInOneFactorization) {
   Eigen::VectorXd sigma = first.sigma;
   for (int seed = 2; seed <= 6; ++seed) {
     // Every free node moved by up to 1e-7 strut lengths, as in a crawling position phase.
-    const Structure moved = bench::perturb_nodes(start, 1e-7, seed);
+    const Structure moved = scenes::with_tower_noise(start, 1e-7, seed);
     eq.set_positions(moved.positions);
     const StressQpResult warm = qp.solve(sigma);
     SCOPED_TRACE("seed " + std::to_string(seed));

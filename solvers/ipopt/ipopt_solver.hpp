@@ -1,0 +1,49 @@
+#pragma once
+// The `ipopt` backend: Eq. 5 (formulations/minimal_geometry_change_nlp.hpp)
+// solved whole by Ipopt's interior-point method with MUMPS. No Ipopt header is
+// included here; the TNLP adapter lives in ipopt_solver.cpp.
+//
+// Ipopt sees a dimensionless problem: y = ((q - q0) / L, sigma / F0), equality
+// rows f / F0 and c^T sigma / F0 (L = mean element length, F0 the ForceScale
+// reference force), so its tolerances mean the same at every scene scale.
+// Starting point: the scene geometry and the stress QP's forces.
+//
+// Defaults: exact Hessian, linear_solver mumps, tol 1e-12, constr_viol_tol
+// derived from SolveOptions::tolerance (so that Ipopt's success implies the
+// contract's relative residual), mu_strategy adaptive, max_iter from the
+// iteration budget (SolveOptions::iteration_budget: 2000 when max_iterations
+// is 0), max_cpu_time from time_limit_s (the wall clock is also
+// checked every iteration), print_level 0 and no banner unless verbose (then
+// Ipopt's log goes to stderr; stdout may carry the solution).
+//
+// `--option key=value` (SolveOptions::backend_options) passes any Ipopt option
+// through, e.g. hessian_approximation=limited-memory, mu_strategy=monotone,
+// tol=1e-9, max_iter=500. Values are tried as integer, then number, then
+// string; an unknown option name or a rejected value is an OptionError.
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "solvers/solver.hpp"
+
+namespace tensegrity {
+
+// Native Ipopt options given as `--option key=value`, checked against
+// Ipopt's own registry (name, type and range).
+struct IpoptOptions {
+  OptionPairs native;
+  static IpoptOptions FromPairs(const OptionPairs& pairs);
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+class IpoptSolver : public SolverWithOptions<IpoptOptions> {
+ public:
+  std::string_view name() const override { return "ipopt"; }
+
+ protected:
+  SolveResult DoSolve(const PartProblem& problem, const IpoptOptions& options) const override;
+};
+
+std::unique_ptr<Solver> make_ipopt_solver();
+
+}  // namespace tensegrity

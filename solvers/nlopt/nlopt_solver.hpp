@@ -1,0 +1,71 @@
+#pragma once
+// The `nlopt` backend: Eq. 5 (formulations/minimal_geometry_change_nlp.hpp)
+// solved with NLopt's local gradient algorithms. NLopt has no sparse linear
+// algebra, and its constrained algorithms either need a dense Jacobian of full
+// row rank (SLSQP; tensegrity equilibrium matrices are often rank-deficient) or
+// handle only inequalities (MMA, CCSAQ). The default therefore wraps NLopt's
+// bound-constrained L-BFGS in an augmented-Lagrangian outer loop of our own:
+//
+//   y = (q / L, sigma / F0)                      (dimensionless variables)
+//   c(y) = (f(q, sigma) / F0, c^T sigma / (n_c F0) - 1)
+//   min_y  |q - q0|^2 / L^2 + lambda^T c(y) + (rho / 2) |c(y)|^2
+//   s.t.   sigma within the ForceScale sign bounds (NLopt box bounds)
+//
+// after each inner solve lambda += rho c and rho grows tenfold when |c| did not
+// shrink fourfold. Stops once the contract's relative residual is below half
+// the tolerance; the result is then re-verified by model/verify.
+//
+// `--option` keys (SolveOptions::backend_options):
+//   algorithm       al-lbfgs (default), al-tnewton, al-mma, al-ccsaq (the same
+//                   outer loop around another NLopt bound-constrained local
+//                   algorithm), penalty-lbfgs (quadratic penalty continuation,
+//                   no multipliers), auglag-eq-lbfgs (NLopt's own AUGLAG_EQ
+//                   around LD_LBFGS), slsqp (NLopt's SLSQP on Eq. 5, dense)
+//   ftol_rel, xtol_rel   NLopt stopping tolerances of each NLopt run (1e-15)
+//   maxeval         total function evaluations (100 * the iteration budget,
+//                   SolveOptions::iteration_budget: 2000 when max_iterations is 0)
+//   penalty_initial rho at the start (10), penalty_growth (10), penalty_max (1e12)
+//   lbfgs_memory    L-BFGS / TNEWTON vector storage, 0 = NLopt's heuristic (0)
+//   init            qp (stress QP at the scene geometry, default) or reference
+//                   (+F0 on cables, -F0 on struts)
+// max_iterations bounds the outer iterations (every NLopt algorithm's own
+// iterations are bounded by maxeval); time_limit_s becomes NLopt's maxtime.
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "solvers/solver.hpp"
+
+namespace tensegrity {
+
+// Largest L-BFGS / TNEWTON vector storage an option may ask for.
+inline constexpr int kLargestLbfgsMemory = 1000;
+
+struct NloptOptions {
+  std::string algorithm = "al-lbfgs";  // see above
+  double ftol_rel = 1e-15;             // NLopt stopping tolerances of each NLopt run
+  double xtol_rel = 1e-15;
+  long maxeval = 0;                    // total evaluations; 0: 100 x the iteration budget
+  double penalty_initial = 10.0;       // rho at the start
+  double penalty_growth = 10.0;        // factor when |c| did not shrink fourfold
+  double penalty_max = 1e12;
+  int lbfgs_memory = 0;                // 0: NLopt's heuristic
+  std::string init = "qp";             // qp | reference
+  static NloptOptions FromPairs(const OptionPairs& pairs);
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+class NloptSolver : public SolverWithOptions<NloptOptions> {
+ public:
+  std::string_view name() const override { return "nlopt"; }
+  static std::vector<std::string> algorithm_names();
+  static std::string default_algorithm() { return "al-lbfgs"; }
+
+ protected:
+  SolveResult DoSolve(const PartProblem& problem, const NloptOptions& options) const override;
+};
+
+std::unique_ptr<Solver> make_nlopt_solver();
+
+}  // namespace tensegrity
