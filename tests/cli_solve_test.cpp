@@ -24,7 +24,8 @@ struct ProcessResult {
 
 // Runs the program with a shell command line; returns exit status and stdout.
 ProcessResult run_cli(const std::string& args) {
-  const std::string cmd = std::string(TENSEGRITY_BINARY) + " " + args + " 2>/dev/null";
+  const bool redirects_stderr = args.find("2>&1") != std::string::npos;
+  const std::string cmd = std::string(TENSEGRITY_BINARY) + " " + args + (redirects_stderr ? "" : " 2>/dev/null");
   FILE* p = popen(cmd.c_str(), "r");
   std::string out;
   char buf[4096];
@@ -115,6 +116,34 @@ TEST_F(CliSolve, BadToleranceAndUnknownSolverAreUsageErrors) {
                            " --option nosuchkey=1"}) {
     EXPECT_EQ(run_cli("solve " + scene + " --out " + out + args).status, 2) << args;
     EXPECT_FALSE(fs::exists(out)) << args;
+  }
+}
+
+// Every backend rejects an out-of-range option value the same way: exit 2, no
+// output, one line naming the option, its value and the valid range.
+TEST_F(CliSolve, OutOfRangeBackendOptionsNameTheOptionAndTheValidRange) {
+  const std::string scene = write_scene(scenes::prism(3, 10.0));
+  const std::string out = (dir / "never.json").string();
+  const struct {
+    const char* solver;
+    const char* option;
+    const char* range;
+  } cases[] = {
+      {"alternating", "mu=0", "(valid: (0, inf))"},
+      {"alternating-gn", "mu=0", "(valid: (0, inf))"},
+      {"alternating", "crawl_ratio=1.5", "(valid: (0, 1])"},
+      {"alternating-gn", "restarts=9", "(valid: [0, 5])"},
+      {"nlopt", "ftol_rel=0", "(valid: (0, inf))"},
+      {"ipopt", "tol=0", "(valid: a number in (0, inf))"},
+  };
+  for (const auto& c : cases) {
+    const ProcessResult r = run_cli("solve " + scene + " --solver " + c.solver + " --option " + c.option +
+                                    " --out " + out + " 2>&1 >/dev/null");
+    EXPECT_EQ(r.status, 2) << c.solver << " " << c.option;
+    EXPECT_FALSE(fs::exists(out)) << c.solver << " " << c.option;
+    const std::string expected = std::string("tensegrity: command line: --option ") + c.option + ": out of range " +
+                                 c.range + " (solver " + c.solver + ")\n";
+    EXPECT_EQ(r.out, expected) << c.solver << " " << c.option;
   }
 }
 
