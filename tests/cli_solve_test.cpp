@@ -1,4 +1,4 @@
-// End-to-end: the `tensegrity` program as outside scripts use it (CONTRACT.md).
+// End-to-end: the `tensegrity` program as outside scripts use it (docs/FORMATS.md).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
