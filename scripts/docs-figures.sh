@@ -34,7 +34,8 @@ if [ "${FIGURES_NO_BUILD:-0}" != 1 ]; then
 fi
 tg=$build/tensegrity
 cb=$build/bench/compare_bench
-[ -x "$tg" ] && [ -x "$cb" ] || { echo "docs-figures: $tg or $cb missing" >&2; exit 1; }
+[ -x "$tg" ] || { echo "docs-figures: $tg missing" >&2; exit 1; }
+need_bench() { [ -x "$cb" ] || { echo "docs-figures: $cb missing" >&2; exit 1; }; }
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -125,6 +126,7 @@ EOF
 }
 # --- 1. the backend comparison ------------------------------------------------
 backends() {
+  need_bench
   step "every backend on the comparison scenes (time limit $limit s per solve)"
   local cmd="$cb --benchmark_filter=^compare/ --time_limit=$limit --benchmark_min_time=0.05 --benchmark_repetitions=1 --trace_dir=traces --benchmark_out=compare.json --benchmark_out_format=json"
   header "$out/backends.md" "Every backend on the comparison scenes" "$cmd"
@@ -185,6 +187,7 @@ EOF
 
 # --- 2. scaling -----------------------------------------------------------------
 scaling() {
+  need_bench
   step "scaling families"
   local cmd="$cb --benchmark_filter=^scaling/ --chain_sizes=2,8,32,128 --tower_layers=2,8,32 --time_limit=$limit --benchmark_min_time=0.05 --benchmark_repetitions=1 --benchmark_out=scaling.json --benchmark_out_format=json"
   header "$out/scaling.md" "Scaling families" "$cmd"
