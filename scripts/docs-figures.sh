@@ -24,19 +24,19 @@ build=${FIGURES_BUILD_DIR:-build}
 out=${FIGURES_OUT:-docs/figures}
 limit=${FIGURES_TIME_LIMIT:-10}
 py=/usr/bin/python3
-export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1  # one core per solve
 export LC_ALL=C
 
 if [ "${FIGURES_NO_BUILD:-0}" != 1 ]; then
   echo "== build (Release): tensegrity, compare_bench"
   cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
-  cmake --build "$build" -j"$(nproc)" --target tensegrity compare_bench >/dev/null
+  cmake --build "$build" -j"$(nproc --all)" --target tensegrity compare_bench >/dev/null
 fi
 tg=$build/tensegrity
 cb=$build/bench/compare_bench
 [ -x "$tg" ] || { echo "docs-figures: $tg missing" >&2; exit 1; }
 need_bench() { [ -x "$cb" ] || { echo "docs-figures: $cb missing" >&2; exit 1; }; }
 
+export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1  # one core per solve (nproc counts them too)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 mkdir -p "$out"
@@ -45,7 +45,7 @@ mkdir -p "$out"
 commit=$(git rev-parse HEAD)
 git diff --quiet HEAD -- . ':!docs' ':!*.md' 2>/dev/null || commit="$commit (with uncommitted changes)"
 cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1)
-machine="$(uname -m), $(nproc) cores, ${cpu:-unknown CPU}, $(uname -sr)"
+machine="$(uname -m), $(nproc --all) cores, ${cpu:-unknown CPU}, $(uname -sr)"
 started=$(date -u '+%Y-%m-%d %H:%M UTC')
 export FIG_COMMIT=$commit FIG_MACHINE=$machine FIG_DATE=$started
 
