@@ -12,7 +12,7 @@
 # Every Markdown file starts with the command, the commit, the date and the
 # machine; every JSON file carries the same record under "provenance".
 #
-#   bash scripts/docs-figures.sh            # about 6-10 minutes on 2 idle cores
+#   bash scripts/docs-figures.sh   # 17 min on 2 cores shared at load average 15; less when idle
 #
 # Environment: FIGURES_BUILD_DIR (default build), FIGURES_OUT (default
 # docs/figures), FIGURES_TIME_LIMIT (seconds per solve, default 10),
@@ -203,7 +203,7 @@ scaling() {
     echo "Fitted exponents over the verified sizes (report.py):"
     echo
     echo '```'
-    sed -n '/^Scaling families/,/^$/p' "$work/scale-report.txt" | sed '/^$/d'
+    sed -n '/^Scaling families/,/^$/p' "$work/scale-report.txt" | grep -E '^(Scaling|  )'
     echo '```'
   } >>"$out/scaling.md"
   [ -f "$work/scale-report/scaling.png" ] && cp "$work/scale-report/scaling.png" "$out/scaling.png"
