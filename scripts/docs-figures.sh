@@ -12,7 +12,7 @@
 # Every Markdown file starts with the command, the commit, the date and the
 # machine; every JSON file carries the same record under "provenance".
 #
-#   bash scripts/docs-figures.sh   # 17 min on 2 cores shared at load average 15; less when idle
+#   bash scripts/docs-figures.sh   # several minutes on 2 cores; each file records the load
 #
 # Environment: FIGURES_BUILD_DIR (default build), FIGURES_OUT (default
 # docs/figures), FIGURES_TIME_LIMIT (seconds per solve, default 10),
