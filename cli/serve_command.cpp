@@ -1,4 +1,4 @@
-// tensegrity serve [SCENE|CHARACTER|DESIGN] [--port 8080] [--open] [--time-limit S]
+// tensegrity serve [SCENE|CHARACTER|DESIGN] [--port 8080] [--open] [--write] [--time-limit S]
 //
 // The interactive design loop of the paper (section 3) in a browser: a local
 // web app on 127.0.0.1 only, its files (web/, three.js from web/node_modules)
@@ -53,12 +53,23 @@ constexpr std::size_t kMaxRequestBytes = 64u << 20;
 constexpr int kMaxSimulations = 8;     // older ones are dropped first
 constexpr int kMaxStepsPerRequest = 100;
 constexpr double kDefaultServeTimeLimit = 60.0;  // s, per solve or design
+// A browser keeps up to six idle keep-alive connections per host and each
+// holds a worker thread while it waits, so the pool must be larger than that
+// plus the long solves running at once.
+constexpr std::size_t kWorkerThreads = 32;
+constexpr std::size_t kKeepAliveRequests = 100000;  // the simulation loop reuses one connection
+// cpp-httplib brotli-compresses exactly "application/json" and
+// "application/javascript" for browsers, at a cost far above the transfer
+// time on the loopback; these spellings are not compressed.
+constexpr const char* kJsonType = "application/json; charset=utf-8";
+constexpr const char* kScriptType = "application/javascript; charset=utf-8";
 
 struct ServeArgs {
   std::string input;
   std::string web_root = TENSEGRITY_WEB_DIR;
   int port = 8080;
   bool open = false;
+  bool write_back = false;  // --write: edits of a character go back to its file
   double time_limit = kDefaultServeTimeLimit;
 };
 
@@ -106,12 +117,16 @@ class WebApp {
 
   void install(httplib::Server& server) {
     server.set_payload_max_length(kMaxRequestBytes);
-    server.set_read_timeout(10, 0);
-    for (const auto& [ext, type] : std::map<std::string, std::string>{{"js", "text/javascript"},
-                                                                      {"mjs", "text/javascript"},
+    server.set_read_timeout(5, 0);
+    server.set_keep_alive_max_count(kKeepAliveRequests);
+    server.set_keep_alive_timeout(2);
+    server.set_tcp_nodelay(true);  // small answers, one after another: no Nagle delay
+    server.new_task_queue = [] { return new httplib::ThreadPool(kWorkerThreads); };
+    for (const auto& [ext, type] : std::map<std::string, std::string>{{"js", kScriptType},
+                                                                      {"mjs", kScriptType},
                                                                       {"css", "text/css"},
                                                                       {"html", "text/html"},
-                                                                      {"json", "application/json"},
+                                                                      {"json", kJsonType},
                                                                       {"png", "image/png"},
                                                                       {"svg", "image/svg+xml"}})
       server.set_file_extension_and_mimetype_mapping(ext, type);
@@ -146,6 +161,9 @@ class WebApp {
                                    {"nodes", c.nodes}, {"struts", c.struts}, {"cables", c.cables},
                                    {"fixed_nodes", c.fixed_nodes}, {"mass", c.mass}}}});
     });
+    server.Put("/api/character", [this](const httplib::Request& req, httplib::Response& res) {
+      save_character(req, res);
+    });
     server.Post("/api/solve", [this](const httplib::Request& req, httplib::Response& res) { solve(req, res); });
     server.Post("/api/design", [this](const httplib::Request& req, httplib::Response& res) { design(req, res); });
     server.Post("/api/simulation", [this](const httplib::Request& req, httplib::Response& res) {
@@ -168,7 +186,7 @@ class WebApp {
   }
   static void reply_json(httplib::Response& res, const nlohmann::json& j) {
     res.status = 200;
-    res.set_content(j.dump(), "application/json");
+    res.set_content(j.dump(), kJsonType);
   }
   static nlohmann::json body_json(const httplib::Request& req) { return parse_json_text(req.body, kRequestSource); }
 
@@ -210,7 +228,23 @@ class WebApp {
     }
     return {{"solvers", solver_names()}, {"default_solver", default_solver_name()}, {"blocks", blocks},
             {"materials", {"elastic-cord-2mm", "elastic-cord-1mm"}}, {"default_material", kDefaultMaterial},
-            {"time_limit", args_.time_limit}, {"initial", initial_}};
+            {"time_limit", args_.time_limit}, {"initial", initial_},
+            {"writes_character", writes_character()}};
+  }
+
+  bool writes_character() const { return args_.write_back && initial_.value("kind", "") == "character"; }
+
+  // With --write: the edited character replaces the served file once it builds.
+  void save_character(const httplib::Request& req, httplib::Response& res) const {
+    if (!writes_character()) {
+      reply_error(res, 403, std::string(kRequestSource) + ": character: the server was not started with --write CHARACTER");
+      return;
+    }
+    const nlohmann::json j = body_json(req);
+    build_character(j, kRequestSource, library_);
+    std::lock_guard lock(write_mutex_);
+    write_text_file_atomically(args_.input, j.dump(2) + "\n");
+    reply_json(res, {{"written", args_.input}});
   }
 
   // Body: a scene JSON (query ?solver=&tol=&time_limit=), or
@@ -372,6 +406,7 @@ class WebApp {
   ServeArgs args_;
   BlockLibrary library_;
   nlohmann::json initial_;
+  mutable std::mutex write_mutex_;
   std::mutex sessions_mutex_;
   std::map<int, std::shared_ptr<Session>> sessions_;
   int last_session_ = 0;
@@ -420,6 +455,7 @@ void register_serve_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("input", args->input, "Scene, character or design to open");
   cmd->add_option("--port", args->port, "TCP port on 127.0.0.1 (default 8080; 0: any free port)");
   cmd->add_flag("--open", args->open, "Open the app in the desktop's browser");
+  cmd->add_flag("--write", args->write_back, "Write the character back to its file after every edit that builds");
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget of one solve or design in s (default 60)");
   cmd->add_option("--web-root", args->web_root, "Folder holding app/ and node_modules/ (default: the source tree's web/)");
   cmd->callback([args, &run] { run = [args] { return run_serve(*args); }; });

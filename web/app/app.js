@@ -45,7 +45,17 @@ function showMessage(text) { $('message').textContent = text || ''; }
 // ------------------------------------------------------------- viewer -------
 
 const viewport = $('viewport');
-const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+// Multisampling doubles the frame time of a software renderer (SwiftShader, llvmpipe).
+function softwareRenderer() {
+  try {
+    const gl = document.createElement('canvas').getContext('webgl2');
+    const info = gl.getExtension('WEBGL_debug_renderer_info');
+    return /swiftshader|llvmpipe|software/i.test(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+  } catch (err) {
+    return false;
+  }
+}
+const renderer = new THREE.WebGLRenderer({ antialias: !softwareRenderer(), preserveDrawingBuffer: true });
 renderer.setPixelRatio(window.devicePixelRatio);
 viewport.appendChild(renderer.domElement);
 const world = new THREE.Scene();
@@ -79,7 +89,7 @@ resize();
 function forceColor(f, scale, out) {
   // Blue for compression, red for tension, grey at zero.
   const t = scale > 0 ? Math.max(-1, Math.min(1, f / scale)) : 0;
-  const grey = [0.85, 0.85, 0.85];
+  const grey = [0.62, 0.62, 0.62];
   const end = t < 0 ? [0.12, 0.31, 0.84] : [0.82, 0.15, 0.11];
   const a = Math.abs(t);
   out.setRGB(grey[0] + a * (end[0] - grey[0]), grey[1] + a * (end[1] - grey[1]), grey[2] + a * (end[2] - grey[2]));
@@ -278,6 +288,10 @@ async function characterChanged(frame = false) {
       `${c.edge_links} edge links, mass ${c.mass.toPrecision(3)} kg (not form-found)`);
     setView(viewOfScene(built.scene), frame);
     showMessage('');
+    if (state.info.writes_character) {
+      await api('/api/character', state.character, 'PUT');
+      setStatus(`${$('status-line').textContent}; saved to ${state.info.initial.file}`);
+    }
   } catch (err) {
     if (request !== buildRequests) return;
     setStatus('the character does not build');
@@ -482,9 +496,9 @@ async function stopSimulation() {
 }
 
 // Real time: each request asks for the steps due since the last one (at most
-// MAX_CATCH_UP), so simulated time keeps up with the clock however slowly the
+// MAX_CATCH_UP, half a second), so simulated time keeps up with the clock however slowly the
 // page draws. Otherwise one step per request, as fast as the server answers.
-const MAX_CATCH_UP = 10;
+const MAX_CATCH_UP = 30;
 async function simulationLoop(sim) {
   while (sim.running) {
     let steps = 1;
@@ -639,6 +653,8 @@ async function start() {
 // Read-only hooks for the browser test: where a node is drawn on screen.
 window.tensegrityApp = {
   state,
+  updateParts,
+  render: () => { renderer.render(world, camera); renderer.getContext().finish(); },
   nodeScreenPosition(i) {
     const p = new THREE.Vector3().fromArray(state.view.positions[i]).project(camera);
     const rect = renderer.domElement.getBoundingClientRect();

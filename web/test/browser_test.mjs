@@ -1,7 +1,7 @@
 // Headless browser test of `tensegrity serve` (registered with ctest as web_browser).
 //
 //   node web/test/browser_test.mjs TENSEGRITY_BINARY SCREENSHOT.png
-//   node web/test/browser_test.mjs TENSEGRITY_BINARY --measure CHARACTER [SECONDS]
+//   node web/test/browser_test.mjs TENSEGRITY_BINARY --measure CHARACTER [SECONDS] [realtime]
 //
 // The first form starts the server on a free port, checks the API's answers to
 // bad input, then drives Debian's chromium through playwright-core: two blocks
@@ -62,6 +62,8 @@ async function checkApi(url) {
     message.trim().split('\n').length === 1, `malformed JSON gives 400 and one line: ${message.trim()}`);
   const wrong = await fetch(`${url}api/solve`, { method: 'POST', body: '{"format": "tensegrity-scene", "version": 1, "nodes": [], "elements": []}' });
   check(wrong.status === 400 && (await wrong.text()).startsWith('tensegrity: request: '), 'an invalid scene gives 400');
+  const put = await fetch(`${url}api/character`, { method: 'PUT', body: '{}' });
+  check(put.status === 403, 'without --write the character file is not written');
   const info = await fetch(`${url}api/info`);
   check(info.status === 200 && (await info.json()).solvers.length > 0, 'the server keeps answering after bad input');
 }
@@ -213,7 +215,7 @@ async function runTest(binary, screenshot) {
   }
 }
 
-async function runMeasure(binary, character, seconds) {
+async function runMeasure(binary, character, seconds, realTime) {
   const server = startServer(binary, [character, '--time-limit', '300']);
   const url = await server.url;
   const browser = await launch();
@@ -225,15 +227,18 @@ async function runMeasure(binary, character, seconds) {
       const v = window.tensegrityApp.state.view;
       return `${v.nodes.length} nodes, ${v.elements.length} elements`;
     });
-    await simulate(page, false);
+    await simulate(page, realTime);
     const node = await topFreeNode(page);
+    const requests0 = await page.evaluate(() => window.tensegrityApp.state.sim.requests);
     const drag = await dragNode(page, node, 100, -50, 1000 * seconds);
-    const perStep = await page.evaluate(() => {
+    const { perStep, requests } = await page.evaluate(() => {
       const s = window.tensegrityApp.state.sim;
-      return 1000 * s.stepSeconds / s.steps;
+      return { perStep: 1000 * s.stepSeconds / s.steps, requests: s.requests };
     });
-    console.log(`${path.basename(character)}: ${counts}; while dragging node ${node}: ${drag.steps} steps in ` +
-      `${drag.seconds.toFixed(2)} s = ${drag.rate.toFixed(1)} steps/s (browser loop, one step per request); ` +
+    const answers = (requests - requests0) / drag.seconds;
+    console.log(`${path.basename(character)}: ${counts}; while dragging node ${node} ` +
+      `(${realTime ? 'real time: the steps due per request' : 'one step per request'}): ${drag.steps} steps in ` +
+      `${drag.seconds.toFixed(2)} s = ${drag.rate.toFixed(1)} steps/s, ${answers.toFixed(1)} answers/s; ` +
       `solver time ${perStep.toFixed(2)} ms per step`);
   } finally {
     await browser.close();
@@ -241,10 +246,10 @@ async function runMeasure(binary, character, seconds) {
   }
 }
 
-const [binary, second, third, fourth] = process.argv.slice(2);
+const [binary, second, third, fourth, fifth] = process.argv.slice(2);
 if (!binary || !second) {
   console.error('usage: browser_test.mjs TENSEGRITY SCREENSHOT.png | TENSEGRITY --measure CHARACTER [SECONDS]');
   process.exit(2);
 }
-const run = second === '--measure' ? runMeasure(binary, third, Number(fourth || 10)) : runTest(binary, second);
+const run = second === '--measure' ? runMeasure(binary, third, Number(fourth || 10), fifth === 'realtime') : runTest(binary, second);
 run.then(() => process.exit(0), (err) => { console.error(`FAILED: ${err.message}`); process.exit(1); });
