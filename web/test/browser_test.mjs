@@ -128,14 +128,16 @@ async function dragNode(page, node, dx, dy, holdMs) {
     await page.mouse.move(at.x + dx * k / 10, at.y + dy * k / 10);
     await page.waitForTimeout(30);
   }
-  const steps0 = await page.evaluate(() => window.tensegrityApp.state.sim.steps);
+  const count = () => page.evaluate(() => [window.tensegrityApp.state.sim.steps, window.tensegrityApp.state.sim.requests]);
+  const [steps0, requests0] = await count();
   const t0 = Date.now();
   await page.waitForTimeout(holdMs);
-  const steps1 = await page.evaluate(() => window.tensegrityApp.state.sim.steps);
+  const [steps1, requests1] = await count();
   const seconds = (Date.now() - t0) / 1000;
   const dragging = await page.evaluate(() => !!window.tensegrityApp.state.sim.drag);
   await page.mouse.up();
-  return { rate: (steps1 - steps0) / seconds, steps: steps1 - steps0, seconds, dragging };
+  return { rate: (steps1 - steps0) / seconds, answers: (requests1 - requests0) / seconds, steps: steps1 - steps0, seconds,
+    dragging };
 }
 
 async function runTest(binary, screenshot) {
@@ -229,16 +231,14 @@ async function runMeasure(binary, character, seconds, realTime) {
     });
     await simulate(page, realTime);
     const node = await topFreeNode(page);
-    const requests0 = await page.evaluate(() => window.tensegrityApp.state.sim.requests);
     const drag = await dragNode(page, node, 100, -50, 1000 * seconds);
-    const { perStep, requests } = await page.evaluate(() => {
+    const perStep = await page.evaluate(() => {
       const s = window.tensegrityApp.state.sim;
-      return { perStep: 1000 * s.stepSeconds / s.steps, requests: s.requests };
+      return 1000 * s.stepSeconds / s.steps;
     });
-    const answers = (requests - requests0) / drag.seconds;
     console.log(`${path.basename(character)}: ${counts}; while dragging node ${node} ` +
       `(${realTime ? 'real time: the steps due per request' : 'one step per request'}): ${drag.steps} steps in ` +
-      `${drag.seconds.toFixed(2)} s = ${drag.rate.toFixed(1)} steps/s, ${answers.toFixed(1)} answers/s; ` +
+      `${drag.seconds.toFixed(2)} s = ${drag.rate.toFixed(1)} steps/s, ${drag.answers.toFixed(1)} answers/s; ` +
       `solver time ${perStep.toFixed(2)} ms per step`);
   } finally {
     await browser.close();
