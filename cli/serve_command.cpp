@@ -142,7 +142,9 @@ class WebApp {
       try {
         std::rethrow_exception(ep);
       } catch (const InputError& e) {
-        reply_error(res, 400, e.what());
+        // Options shared with the CLI (solver names, tolerances) come from the request here.
+        reply_error(res, 400, e.file() == "command line" ? InputError(kRequestSource, e.item(), e.reason()).what()
+                                                         : e.what());
       } catch (const std::bad_alloc&) {
         reply_error(res, 500, "out of memory");
       } catch (const std::exception& e) {
