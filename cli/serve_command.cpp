@@ -223,10 +223,17 @@ class WebApp {
     for (const std::string& name : library_.names()) {
       const Block& b = library_.get(name, "library", name);
       nlohmann::json faces = nlohmann::json::array(), cables = nlohmann::json::array();
-      for (const auto& [face, nodes] : b.faces) faces.push_back(face);
-      for (const auto& [cable, element] : b.cables) cables.push_back(cable);
-      blocks[name] = {{"faces", faces}, {"cables", cables}, {"nodes", b.structure.num_nodes()},
-                      {"elements", b.structure.num_elements()}};
+      nlohmann::json face_nodes = nlohmann::json::object(), cable_nodes = nlohmann::json::object();
+      for (const auto& [face, nodes] : b.faces) {
+        faces.push_back(face);
+        face_nodes[face] = nodes;
+      }
+      for (const auto& [cable, element] : b.cables) {
+        cables.push_back(cable);
+        cable_nodes[cable] = {b.structure.elements[element].a, b.structure.elements[element].b};
+      }
+      blocks[name] = {{"faces", faces}, {"cables", cables}, {"face_nodes", face_nodes}, {"cable_nodes", cable_nodes},
+                      {"nodes", b.structure.num_nodes()}, {"elements", b.structure.num_elements()}};
     }
     return {{"solvers", solver_names()}, {"default_solver", default_solver_name()}, {"blocks", blocks},
             {"materials", {"elastic-cord-2mm", "elastic-cord-1mm"}}, {"default_material", kDefaultMaterial},

@@ -287,6 +287,7 @@ async function characterChanged(frame = false) {
     setStatus(`built ${state.character.name}: ${c.blocks} blocks, ${c.face_links} face links, ` +
       `${c.edge_links} edge links, mass ${c.mass.toPrecision(3)} kg (not form-found)`);
     setView(viewOfScene(built.scene), frame);
+    drawPicks();
     showMessage('');
     if (state.info.writes_character) {
       await api('/api/character', state.character, 'PUT');
@@ -373,9 +374,11 @@ function wireEditor() {
   });
   $('bt-ground').onchange = groundChange;
   $('bt-ground-n').onchange = groundChange;
-  $('link-type').onchange = () => { refreshLinkParts('a'); refreshLinkParts('b'); };
-  $('link-a-block').onchange = () => refreshLinkParts('a');
-  $('link-b-block').onchange = () => refreshLinkParts('b');
+  $('link-type').onchange = () => { refreshLinkParts('a'); refreshLinkParts('b'); drawPicks(); };
+  $('link-a-block').onchange = () => { refreshLinkParts('a'); drawPicks(); };
+  $('link-b-block').onchange = () => { refreshLinkParts('b'); drawPicks(); };
+  $('link-a-part').onchange = drawPicks;
+  $('link-b-part').onchange = drawPicks;
   $('add-link').onclick = () => {
     const a = $('link-a-block').value, b = $('link-b-block').value;
     if (!a || !b || a === b) return showMessage('pick two different blocks to link');
@@ -547,6 +550,54 @@ async function simulationLoop(sim) {
   }
 }
 
+// Shift-click on a node picks a link end: its block and the first face (or
+// cable) of the block through that node; shift-clicking the same node again
+// cycles through the others. Ends a and b alternate.
+let lastPick = null;
+function pickLinkEnd(block, blockNode) {
+  const type = $('link-type').value;
+  const lib = state.info.blocks[blockById(block).type];
+  const through = Object.entries(type === 'face' ? lib.face_nodes : lib.cable_nodes)
+    .filter(([, nodes]) => nodes.includes(blockNode)).map(([name]) => name);
+  const again = lastPick && lastPick.block === block && lastPick.node === blockNode;
+  const side = again ? lastPick.side : lastPick && lastPick.side === 'a' ? 'b' : 'a';
+  $(`link-${side}-block`).value = block;
+  refreshLinkParts(side);
+  const current = again ? $(`link-${side}-part`).value : null;
+  const part = through.length ? through[(through.indexOf(current) + 1) % through.length] : '';
+  $(`link-${side}-part`).value = part;
+  lastPick = { block, node: blockNode, side };
+  showMessage('');
+}
+
+// The chosen link ends, drawn as translucent triangles (faces) or thick lines (cables).
+let pickGroup = new THREE.Group();
+world.add(pickGroup);
+function drawPicks() {
+  world.remove(pickGroup);
+  pickGroup = new THREE.Group();
+  world.add(pickGroup);
+  const v = state.view;
+  if (!v || !state.character) return;
+  const type = $('link-type').value;
+  for (const [side, color] of [['a', 0x00b050], ['b', 0xb000b0]]) {
+    const block = $(`link-${side}-block`).value, part = $(`link-${side}-part`).value;
+    const b = block && blockById(block);
+    if (!b || !part) continue;
+    const lib = state.info.blocks[b.type];
+    const local = (type === 'face' ? lib.face_nodes : lib.cable_nodes)[part];
+    if (!local) continue;
+    const points = local.map((k) => v.nodes.findIndex((n) => n.block === block && n.block_node === k))
+      .filter((i) => i >= 0).map((i) => new THREE.Vector3().fromArray(v.positions[i]));
+    if (points.length !== local.length) continue;
+    const geometry = new THREE.BufferGeometry().setFromPoints(points);
+    pickGroup.add(type === 'face'
+      ? new THREE.Mesh(geometry, new THREE.MeshBasicMaterial({ color, transparent: true, opacity: 0.45, side: THREE.DoubleSide }))
+      : new THREE.Line(geometry, new THREE.LineBasicMaterial({ color })));
+  }
+  needsRender = true;
+}
+
 // Dragging: a spring from the picked node to the pointer on the plane through
 // the node facing the camera.
 const raycaster = new THREE.Raycaster();
@@ -563,10 +614,12 @@ renderer.domElement.addEventListener('pointerdown', (ev) => {
   if (!hit) return;
   const node = hit.instanceId;
   if (!state.sim) {
-    const block = state.view.nodes[node].block;
+    const { block, block_node: blockNode } = state.view.nodes[node];
     if (block !== undefined && state.character && blockIds().includes(block)) {
+      if (ev.shiftKey) pickLinkEnd(block, blockNode);
       state.selectedBlock = block;
       refreshEditor();
+      drawPicks();
     }
     return;
   }

@@ -157,6 +157,26 @@ async function runTest(binary, screenshot) {
     await setField(page, 'bt-tz', 0.11);
     await setField(page, 'bt-rz', 60);
     await page.selectOption('#link-type', 'face');
+    // Picking in 3D: shift-click the lowest node (of the first block) picks a face through it.
+    await page.waitForFunction(() => /2 blocks/.test(document.getElementById('status-line').textContent));
+    const low = await page.evaluate(() => {
+      const v = window.tensegrityApp.state.view;
+      let best = 0;
+      v.positions.forEach((p, i) => { if (p[2] < v.positions[best][2]) best = i; });
+      return { node: best, block: v.nodes[best].block, blockNode: v.nodes[best].block_node };
+    });
+    const at = await page.evaluate((i) => window.tensegrityApp.nodeScreenPosition(i), low.node);
+    await page.keyboard.down('Shift');
+    await page.mouse.click(at.x, at.y);
+    await page.keyboard.up('Shift');
+    const picked = await page.evaluate(() => [document.getElementById('link-a-block').value,
+      document.getElementById('link-a-part').value]);
+    const faceNodes = await page.evaluate(([b, f]) => {
+      const c = window.tensegrityApp.state.character.blocks.find((x) => x.id === b);
+      return window.tensegrityApp.state.info.blocks[c.type].face_nodes[f] || [];
+    }, picked);
+    check(picked[0] === low.block && faceNodes.includes(low.blockNode),
+      `shift-click on node ${low.node} picked ${picked[0]} face ${picked[1]} through it`);
     await page.selectOption('#link-a-block', 'prism-3-1');
     await page.selectOption('#link-a-part', 'top');
     await page.selectOption('#link-b-block', 'prism-3-2');
