@@ -3,6 +3,7 @@
 // server's library (docs/WEB.md); this file only shows results and sends edits.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { TransformControls } from 'three/addons/controls/TransformControls.js';
 
 const $ = (id) => document.getElementById(id);
 
@@ -329,6 +330,7 @@ function refreshEditor() {
   }
   const links = state.character ? state.character.links : [];
   optionList($('link-select'), links.map((l) => [l.id, `${l.id} (${l.type})`]), $('link-select').value);
+  placeGizmo();
 }
 
 function refreshLinkParts(side) {
@@ -366,6 +368,7 @@ function wireEditor() {
     c.ground = c.ground.filter((g) => g.block !== id);
   });
   $('block-select').onchange = () => { state.selectedBlock = $('block-select').value; refreshEditor(); };
+  $('gizmo-mode').onchange = placeGizmo;
   for (const id of ['bt-scale', 'bt-tx', 'bt-ty', 'bt-tz', 'bt-rx', 'bt-ry', 'bt-rz'])
     $(id).onchange = () => state.selectedBlock && editCharacter((c) => readTransform(c.blocks.find((b) => b.id === state.selectedBlock)));
   const groundChange = () => state.selectedBlock && editCharacter((c) => {
@@ -416,6 +419,49 @@ function wireEditor() {
     try { parsed = JSON.parse($('character-json').value); } catch (err) { return showMessage(`character file: ${err.message}`); }
     editCharacter((c) => { for (const k of Object.keys(c)) delete c[k]; Object.assign(c, parsed); });
   };
+}
+
+// The move/rotate/scale handle of the selected block: its translation,
+// rotation R = Rz Ry Rx (three.js Euler order 'ZYX') and uniform scale.
+const gizmo = new TransformControls(camera, renderer.domElement);
+const gizmoTarget = new THREE.Object3D();
+world.add(gizmoTarget, gizmo.getHelper());
+gizmo.addEventListener('change', () => { needsRender = true; });
+gizmo.addEventListener('dragging-changed', (ev) => {
+  controls.enabled = !ev.value;
+  if (!ev.value) applyGizmo();
+});
+const round = (x, digits) => Number(x.toFixed(digits));
+
+function placeGizmo() {
+  const b = state.selectedBlock && !state.sim && state.character && blockById(state.selectedBlock);
+  const mode = $('gizmo-mode').value;
+  if (!b || mode === 'off') {
+    gizmo.detach();
+    needsRender = true;
+    return;
+  }
+  gizmoTarget.position.fromArray(b.translation || [0, 0, 0]);
+  const r = (b.rotation_deg || [0, 0, 0]).map(THREE.MathUtils.degToRad);
+  gizmoTarget.rotation.set(r[0], r[1], r[2], 'ZYX');
+  const scale = b.scale ?? 1;
+  gizmoTarget.scale.set(scale, scale, scale);
+  gizmo.setMode(mode);
+  gizmo.attach(gizmoTarget);
+  needsRender = true;
+}
+
+function applyGizmo() {
+  const id = state.selectedBlock;
+  if (!id) return;
+  const e = new THREE.Euler().setFromQuaternion(gizmoTarget.quaternion, 'ZYX');
+  const s = gizmoTarget.scale;
+  editCharacter((c) => {
+    const b = c.blocks.find((x) => x.id === id);
+    b.translation = gizmoTarget.position.toArray().map((x) => round(x, 4));
+    b.rotation_deg = [e.x, e.y, e.z].map((x) => round(THREE.MathUtils.radToDeg(x), 1));
+    b.scale = round(Math.cbrt(Math.abs(s.x * s.y * s.z)), 5);  // uniform: the mean of a free scaling
+  });
 }
 
 // ------------------------------------------------------- form finding -------
@@ -485,6 +531,7 @@ async function startSimulation() {
   state.sim = { id: r.id, running: true, steps: 0, requests: 0, started: performance.now(), drag: null, rate: 0,
     requestRate: 0, window: [], dt: r.dt, stepSeconds: 0 };
   setView(viewOfScene(d, r.positions, r.forces, d.positions));
+  placeGizmo();
   $('stop').disabled = false;
   simulationLoop(state.sim);
 }
@@ -608,7 +655,7 @@ function pointerRay(ev) {
   raycaster.setFromCamera(pointer, camera);
 }
 renderer.domElement.addEventListener('pointerdown', (ev) => {
-  if (!parts) return;
+  if (!parts || gizmo.dragging || gizmo.axis) return;  // the handle's own drag
   pointerRay(ev);
   const hit = raycaster.intersectObject(parts.nodeMesh)[0];
   if (!hit) return;
@@ -708,8 +755,9 @@ window.tensegrityApp = {
   state,
   updateParts,
   render: () => { renderer.render(world, camera); renderer.getContext().finish(); },
-  nodeScreenPosition(i) {
-    const p = new THREE.Vector3().fromArray(state.view.positions[i]).project(camera);
+  nodeScreenPosition(i) { return this.screenPosition(state.view.positions[i]); },
+  screenPosition(point) {
+    const p = new THREE.Vector3().fromArray(point).project(camera);
     const rect = renderer.domElement.getBoundingClientRect();
     return { x: rect.left + (p.x + 1) / 2 * rect.width, y: rect.top + (1 - p.y) / 2 * rect.height };
   },

@@ -151,6 +151,22 @@ async function runTest(binary, screenshot) {
     await page.selectOption('#block-type', 'prism-3');
     await page.click('#add-block');
     await page.waitForFunction(() => document.getElementById('status-line').textContent.startsWith('built'));
+    // The move handle: drag along its x arrow.
+    await page.selectOption('#gizmo-mode', 'translate');
+    const t0 = await page.evaluate(() => window.tensegrityApp.state.character.blocks[0].translation);
+    const [c, e] = await page.evaluate((t) => [window.tensegrityApp.screenPosition(t),
+      window.tensegrityApp.screenPosition([t[0] + 0.01, t[1], t[2]])], t0);
+    const len = Math.hypot(e.x - c.x, e.y - c.y);
+    const dir = { x: (e.x - c.x) / len, y: (e.y - c.y) / len };
+    await page.mouse.move(c.x + 40 * dir.x, c.y + 40 * dir.y);
+    await page.mouse.down();
+    for (let k = 1; k <= 5; ++k) await page.mouse.move(c.x + (40 + 8 * k) * dir.x, c.y + (40 + 8 * k) * dir.y);
+    await page.mouse.up();
+    await page.waitForFunction((x) => window.tensegrityApp.state.character.blocks[0].translation[0] !== x, t0[0]);
+    const t1 = await page.evaluate(() => window.tensegrityApp.state.character.blocks[0].translation);
+    check(t1[0] > t0[0] && t1[1] === t0[1] && t1[2] === t0[2], `the move handle moved the block along x: ${t0} -> ${t1}`);
+    await page.selectOption('#gizmo-mode', 'off');
+    await setField(page, 'bt-tx', 0);
     await page.click('#add-block');
     await page.waitForFunction(() => window.tensegrityApp.state.character.blocks.length === 2);
     await setField(page, 'bt-tx', 0);
