@@ -176,7 +176,7 @@ class WebApp {
     });
     server.Delete(R"(/api/simulation/(\d+))", [this](const httplib::Request& req, httplib::Response& res) {
       std::lock_guard lock(sessions_mutex_);
-      sessions_.erase(std::stoi(req.matches[1].str()));
+      sessions_.erase(session_id(req));
       reply_json(res, {{"deleted", true}});
     });
   }
@@ -191,6 +191,11 @@ class WebApp {
     res.set_content(j.dump(), kJsonType);
   }
   static nlohmann::json body_json(const httplib::Request& req) { return parse_json_text(req.body, kRequestSource); }
+  // The simulation id of the path (digits only, by the route's pattern); 0 (no such id) when too long.
+  static int session_id(const httplib::Request& req) {
+    const std::string digits = req.matches[1].str();
+    return digits.size() > 9 ? 0 : std::stoi(digits);
+  }
 
   // Query parameter `key` as a finite number, or `fallback`.
   static double number_param(const httplib::Request& req, const nlohmann::json& body, const char* key,
@@ -366,7 +371,7 @@ class WebApp {
     std::shared_ptr<Session> session;
     {
       std::lock_guard lock(sessions_mutex_);
-      const auto it = sessions_.find(std::stoi(req.matches[1].str()));
+      const auto it = sessions_.find(session_id(req));
       if (it == sessions_.end()) {
         reply_error(res, 404, std::string(kRequestSource) + ": simulation: no such simulation (it ended)");
         return;
