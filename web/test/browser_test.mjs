@@ -3,8 +3,8 @@
 //   node web/test/browser_test.mjs TENSEGRITY_BINARY SCREENSHOT.png
 //   node web/test/browser_test.mjs TENSEGRITY_BINARY --measure CHARACTER [SECONDS] [realtime]
 //
-// The first form starts the server on a free port, checks the API's answers to
-// bad input, then drives Debian's chromium through playwright-core: two blocks
+// The first form serves the duck on a free port and checks the API's answers to
+// bad input, then serves an empty character and drives Debian's chromium through playwright-core: two blocks
 // built and linked, form finding, a stiffness design, a simulation in which
 // the mouse drags a node; it checks that the node moved and the residual is
 // shown, and saves a screenshot. The second form opens CHARACTER, designs it,
@@ -140,12 +140,23 @@ async function dragNode(page, node, dx, dy, holdMs) {
     dragging };
 }
 
+const DUCK = path.join(path.dirname(new URL(import.meta.url).pathname), '..', '..', 'data', 'characters', 'duck.character.json');
+
 async function runTest(binary, screenshot) {
+  // The API on a served character, then the app from an empty one.
+  const duck = startServer(binary, [DUCK]);
+  try {
+    const duckUrl = await duck.url;
+    await checkApi(duckUrl);
+    const initial = (await (await fetch(`${duckUrl}api/info`)).json()).initial;
+    check(initial.kind === 'character' && initial.json.name === 'duck', 'serving the duck: the app opens its character');
+  } finally {
+    duck.child.kill('SIGTERM');
+  }
   const server = startServer(binary, []);
   const url = await server.url;
   const browser = await launch();
   try {
-    await checkApi(url);
     const { page, errors } = await openApp(browser.context, url);
     // Two prisms, one above the other, joined top face to bottom face.
     await page.selectOption('#block-type', 'prism-3');
