@@ -10,7 +10,7 @@
 // shown, and saves a screenshot. The second form opens CHARACTER, designs it,
 // drags a node for SECONDS and prints the simulation steps per second.
 import { spawn } from 'node:child_process';
-import { mkdtempSync, rmSync } from 'node:fs';
+import { mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import path from 'node:path';
 import { chromium } from 'playwright-core';
@@ -255,6 +255,17 @@ async function runTest(binary, screenshot) {
     check(/steps\/s/.test(simText), `simulation shown: ${simText}`);
     await page.click('#stop');
     await page.waitForTimeout(200);
+    // Exports: the fabrication sheet and the picture.
+    await page.click('summary:has-text("Export")');
+    const [sheet] = await Promise.all([page.waitForEvent('download'), page.click('[data-export="sheet"]')]);
+    const csv = readFileSync(await sheet.path(), 'utf8').split('\n');
+    const struts = (await view(page)).elements.filter((e) => e.kind === 'strut').length;
+    check(csv[0].startsWith('group_kind,group,element,kind') &&
+      csv.filter((l) => /^[a-z]+,[^,]*,\d+,strut,/.test(l)).length === struts,
+      `the fabrication sheet lists the ${struts} struts (${sheet.suggestedFilename()})`);
+    const [png] = await Promise.all([page.waitForEvent('download'), page.click('[data-export="png"]')]);
+    const bytes = readFileSync(await png.path());
+    check(bytes.subarray(1, 4).toString() === 'PNG' && bytes.length > 10000, `PNG export (${bytes.length} bytes)`);
     await page.screenshot({ path: screenshot });
     check(errors.length === 0, `no errors in the page${errors.length ? ': ' + errors.join('; ') : ''}`);
     console.log(`screenshot: ${screenshot}`);
