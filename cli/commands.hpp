@@ -25,5 +25,6 @@ void register_simulate_command(CLI::App& app, CommandRunner& run);
 void register_relax_command(CLI::App& app, CommandRunner& run);
 void register_batch_command(CLI::App& app, CommandRunner& run);
 void register_stress_test_command(CLI::App& app, CommandRunner& run);
+void register_serve_command(CLI::App& app, CommandRunner& run);
 
 }  // namespace tensegrity::cli

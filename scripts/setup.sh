@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the build and test dependencies from Debian 12 packages (as root).
+# Installs the build and test dependencies from Debian 12 packages (as root),
+# then the web app's npm packages (web/package-lock.json, `npm ci`).
 # Does nothing when everything is already there.
 set -euo pipefail
 packages=(
@@ -15,18 +16,34 @@ packages=(
   gnuplot-nox                   # benchmark plots
   clang libclang-rt-14-dev      # sanitizer and fuzzer builds
   python3-jsonschema            # the JSON Schema test of docs/schemas/
+  libcpp-httplib-dev            # HTTP server of `tensegrity serve`
+  chromium                      # the web app's browser test (playwright-core drives it)
 )
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# Node and npm: Debian's packages unless some node is already installed.
+command -v node >/dev/null || missing+=(nodejs)
+command -v npm >/dev/null || missing+=(npm)
 if [ ${#missing[@]} -eq 0 ]; then
-  echo "setup: all dependencies present"
-  exit 0
+  echo "setup: all Debian packages present"
+else
+  echo "setup: installing ${missing[*]}"
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
-echo "setup: installing ${missing[*]}"
-SUDO=""
-[ "$(id -u)" -eq 0 ] || SUDO="sudo"
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+
+# three.js (served to the app) and playwright-core (the browser test), as pinned
+# in the lockfile; npm ci again only when the lockfile changed.
+web="$(cd "$(dirname "$0")/../web" && pwd)"
+if ! cmp -s "$web/package-lock.json" "$web/node_modules/.package-lock.json.installed" 2>/dev/null; then
+  echo "setup: npm ci in $web"
+  (cd "$web" && npm ci --no-audit --no-fund)
+  cp "$web/package-lock.json" "$web/node_modules/.package-lock.json.installed"
+else
+  echo "setup: web/node_modules up to date"
+fi
