@@ -231,7 +231,7 @@ void render_structure(const Structure& scene, const Eigen::Matrix3Xd& x, const R
   };
   key_line("strut", colour_by == "force" ? kCompression : kStrutPlain, strut_width, false);
   key_line("cable", colour_by == "force" ? kTension : kCablePlain, cable_width * 1.5, false);
-  if (data.forces) key_line("slack cable (force <= 0)", kSlack, cable_width * 1.5, true);
+  if (data.forces) key_line("slack cable", kSlack, cable_width * 1.5, true);
   if (has_ground) {
     c.rectangle(lx + 20 - box / 2, ly - font / 3 - box / 2, box, box, kInk);
     c.text(lx + 50, ly, "fixed node", font, kInk);
