@@ -147,7 +147,7 @@ void render_structure(const Structure& scene, const Eigen::Matrix3Xd& x, const R
     c.set_attributes({{"class", "reference"}});
     for (const auto& el : scene.elements)
       c.line(sx(p_ref.col(el.a)), sy(p_ref.col(el.a)), sx(p_ref.col(el.b)), sy(p_ref.col(el.b)), kFaint,
-             el.kind == ElementKind::Strut ? strut_width * 0.6 : cable_width, el.kind == ElementKind::Cable);
+             el.kind == ElementKind::Strut ? strut_width * 0.6 : cable_width);
     c.clear_attributes();
   }
 
