@@ -186,3 +186,24 @@ TEST(CliRender, SvgKeepsTextAndElementNames) {
 
 }  // namespace
 }  // namespace tensegrity
+
+namespace tensegrity {
+namespace {
+
+TEST(CliCheck, JsonSummaryMatchesTheSolution) {
+  testing::ScratchDir dir("cli-check");
+  const std::string scene = dir.file("prism.scene.json"), solution = dir.file("prism.solution.json");
+  write_scene_file(testing::perturbed(testing::prism(4), 0.05, 3u), scene);
+  ASSERT_EQ(dir.run({"solve", scene, "--out", solution}).exit_status, 0);
+  const auto r = dir.run({"check", scene, solution, "--json"});
+  ASSERT_EQ(r.exit_status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const Solution sol = read_solution_file(solution, read_scene_file(scene));
+  EXPECT_TRUE(j.at("verified").get<bool>());
+  EXPECT_LE(j.at("relative_residual").get<double>(), 1e-8);
+  EXPECT_NEAR(j.at("geometry_change").get<double>(), sol.stats.geometry_change, 1e-12);
+  EXPECT_EQ(j.at("wrong_signs").get<int>(), 0);
+}
+
+}  // namespace
+}  // namespace tensegrity
