@@ -5,8 +5,8 @@
 // Runs only the stages the input needs: form finding (skipped when the input
 // geometry already is a tensegrity), stiffness scaling (the QP of
 // formulations/stiffness_qp.hpp), rest lengths (formulations/rest_lengths.hpp).
-// Writes a self-contained design file (model/design.hpp) and, with --sheet, the
-// fabrication sheet as CSV (cli/fabrication_sheet.hpp). With --compare-naive
+// Writes a self-contained design file (model/design.hpp), the fabrication
+// sheet as CSV and a printable cut list (cli/fabrication_sheet.hpp). With --compare-naive
 // it also settles the design and the paper's constant-fraction baseline under
 // gravity (solvers/naive_sweep.hpp) and records the comparison.
 //
@@ -94,6 +94,16 @@ void check_output_path(const std::string& path, const char* item) {
     throw InputError(path, "", std::string("cannot write ") + item + ": folder " + dir.string() + " does not exist");
 }
 
+// FILE.design.json -> FILE + suffix (also for FILE.json, FILE.csv); "" for standard output.
+std::string default_sheet_path(const std::string& path, const std::string& suffix) {
+  if (path.empty() || path == "-") return "";
+  std::string stem = path;
+  for (const char* ext : {".csv", ".json", ".design", ".sheet"})
+    if (stem.size() > std::string(ext).size() && stem.compare(stem.size() - std::string(ext).size(), std::string::npos, ext) == 0)
+      stem.resize(stem.size() - std::string(ext).size());
+  return stem + suffix;
+}
+
 int run_design(const DesignArgs& a) {
   DesignRequest req;
   req.material = a.material;
@@ -146,15 +156,18 @@ int run_design(const DesignArgs& a) {
     d.info["naive_comparison"] = naive_comparison_json(c, settle_options.method);
   }
 
-  // The sheet first: standard output (--out -) cannot be taken back.
-  if (!a.sheet.empty()) write_text_file_atomically(a.sheet, fabrication_sheet_csv(d, rest.lengths));
+  // The sheet first: standard output (--out -) cannot be taken back. Without
+  // --sheet it goes beside the design, with the printable cut list.
+  const std::string sheet = a.sheet.empty() ? default_sheet_path(a.out, ".sheet.csv") : a.sheet;
+  const std::string cut_list = default_sheet_path(sheet == "-" ? a.out : sheet, ".cutlist.svg");
+  if (!sheet.empty()) write_text_file_atomically(sheet, fabrication_sheet_csv(d, rest.lengths));
   try {
+    if (!cut_list.empty()) write_cut_list(d, rest.lengths, cut_list);
     write_design_file(d, a.out);
   } catch (...) {
-    if (!a.sheet.empty() && a.sheet != "-") {
-      std::error_code ec;
-      std::filesystem::remove(a.sheet, ec);
-    }
+    std::error_code ec;
+    if (!sheet.empty() && sheet != "-") std::filesystem::remove(sheet, ec);
+    if (!cut_list.empty()) std::filesystem::remove(cut_list, ec);
     throw;
   }
 
@@ -184,7 +197,7 @@ void register_design_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--tol", args->tol, "Relative residual for form finding and verification");
   cmd->add_option("--time-limit", args->time_limit, "Form-finding wall-clock budget in seconds");
   cmd->add_option("--out", args->out, "Design file to write, - for standard output")->required();
-  cmd->add_option("--sheet", args->sheet, "Fabrication sheet (CSV) to write");
+  cmd->add_option("--sheet", args->sheet, "Fabrication sheet (CSV; default: beside the design, NAME.sheet.csv, with NAME.cutlist.svg)");
   cmd->add_flag("--compare-naive", args->compare_naive,
                 "Settle the design and the constant-fraction baseline under gravity for a sweep of fractions "
                 "(default: 10 fractions over the materials' strain range 0.05..max) and report the displacements");

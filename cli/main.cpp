@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
   cli::register_batch_command(app, run);
   cli::register_stress_test_command(app, run);
   cli::register_serve_command(app, run);
+  cli::register_compare_command(app, run);
+  cli::register_import_command(app, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -13,6 +13,8 @@ packages=(
   libbenchmark-dev              # Google Benchmark
   nlohmann-json3-dev libcli11-dev
   libcairo2-dev                 # drawing (render command)
+  libyaml-cpp-dev               # NTRT YAML structures (import, export)
+  libmujoco-dev                 # MuJoCo: the suite simulates the MJCF export
   gnuplot-nox                   # benchmark plots
   clang libclang-rt-14-dev      # sanitizer and fuzzer builds
   python3-jsonschema            # the JSON Schema test of docs/schemas/
