@@ -5,7 +5,7 @@ traces, plotted with matplotlib.
         [--scene SCENE] [--out docs/images/python-backends.png]
 
 Default scene: the duck character moved off equilibrium by the stress test's
-"noise" family at 3 % of its median element length (seed 1).
+"noise" family at 10 % of its median element length (seed 1).
 """
 import argparse
 from pathlib import Path
@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import tensegrity as tg  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
-NOISE_LEVEL = 4  # "noise" family level 0.03
+NOISE_LEVEL = 4  # "noise" family level 0.1
 
 
 def default_scene():

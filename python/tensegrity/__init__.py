@@ -33,14 +33,14 @@ from ._core import (
     stress_families,
     stress_levels,
 )
-from ._api import check, forces, read_solution, render, solve
+from ._api import check, forces, read_solution, render, simulate, solve
 from .sweep import stress_family, sweep, SWEEP_COLUMNS
 
 __all__ = [
     "Result", "Scene", "Verification", "SWEEP_COLUMNS",
     "build_character", "chain", "check", "default_solver", "forces", "load_scene",
     "octahedron", "prism", "prism_equilibrium_twist", "read_solution", "render",
-    "scene_from_json", "solve", "solvers", "stress_base_scenes", "stress_case",
+    "scene_from_json", "simulate", "solve", "solvers", "stress_base_scenes", "stress_case",
     "stress_families", "stress_family", "stress_levels", "sweep",
 ]
 

@@ -113,3 +113,34 @@ def render(scene, path, result=None, view="iso", width=1200, height=900, title="
         raise TypeError("width and height are integers (pixels)")
     _core._render(scene, positions, forces_, os.fspath(path), str(view), width, height, str(title))
     return os.fspath(path)
+
+
+def simulate(design, dt=1.0 / 60.0, steps=60, gravity=None, damping=0.0, stiffness_damping=0.0,
+             drags=None, drag_stiffness=None, every=1, tol=1e-9):
+    """Implicit-Euler simulation of a built design (``tensegrity simulate``).
+
+    Parameters
+    ----------
+    design : path
+        A design file (``tensegrity design --out``).
+    dt : float
+        Time step (s). ``steps``: number of steps; ``every``: keep every k-th frame (and the last).
+    gravity : 3 floats, optional
+        Default: the design's.
+    damping, stiffness_damping : float
+        Mass-proportional (1/s) and stiffness-proportional (s) damping.
+    drags : dict node -> (x, y, z), optional
+        Nodes pulled towards fixed targets by springs of ``drag_stiffness`` N/m
+        (default: the command's, force scale / (0.05 length scale)).
+
+    Returns
+    -------
+    dict of numpy arrays, one entry per kept frame (frame 0 is the start):
+    ``step``, ``time`` (s), ``positions`` (frames, n, 3), ``forces`` (frames, m),
+    ``kinetic_energy``, ``potential_energy`` (J), ``newton_iterations``, ``converged``.
+    """
+    targets = {int(node): tuple(float(c) for c in target) for node, target in (drags or {}).items()}
+    if any(len(t) != 3 for t in targets.values()):
+        raise ValueError("tensegrity: command line: --drag: expected 3 numbers per target")
+    return _core._simulate(os.fspath(design), float(dt), int(steps), gravity, float(damping),
+                           float(stiffness_damping), targets, drag_stiffness, int(every), float(tol))

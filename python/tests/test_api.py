@@ -255,3 +255,30 @@ def test_stress_family_generator_is_deterministic():
     moved = [np.abs(s.positions - base.positions).max() for _, _, s in first]
     assert moved[0] > 0 and moved[-1] > moved[0]
     assert "noise" in tg.stress_families()
+
+
+def test_simulate_gives_the_program_frames(cli, root, tmp_path):
+    scene = tmp_path / "puppy.scene.json"
+    design = tmp_path / "puppy.design.json"
+    subprocess.run([cli, "build", str(root / "data" / "characters" / "puppy.character.json"), "--out", str(scene)],
+                   capture_output=True, check=True)
+    subprocess.run([cli, "design", str(scene), "--material", "elastic-cord-2mm", "--out", str(design)],
+                   capture_output=True, check=True)
+    start = tg.load_scene(scene).positions[5]
+    target = start + [0.0, 0.0, 0.02]
+    frames_file = tmp_path / "frames.jsonl"
+    subprocess.run([cli, "simulate", str(design), "--dt", "0.01", "--steps", "6", "--every", "2",
+                    "--drag", "5:" + ",".join(repr(float(c)) for c in target), "--out", str(frames_file),
+                    "--no-vtk"], capture_output=True, check=True)
+    program = [json.loads(line) for line in frames_file.read_text().splitlines()]
+    frames = tg.simulate(design, dt=0.01, steps=6, every=2, drags={5: target})
+    assert frames["step"].tolist() == [f["step"] for f in program] == [0, 2, 4, 6]
+    assert frames["positions"].shape == (4, tg.load_scene(scene).num_nodes, 3)
+    assert np.array_equal(frames["positions"], np.array([f["positions"] for f in program]))
+    assert np.array_equal(frames["forces"], np.array([f["forces"] for f in program]))
+    assert frames["positions"][-1, 5, 2] > start[2] + 1e-4  # the dragged node rose
+    with pytest.raises(ValueError) as error:
+        tg.simulate(design, dt=-1.0)
+    run = subprocess.run([cli, "simulate", str(design), "--dt", "-1", "--out", str(tmp_path / "x.jsonl")],
+                         capture_output=True, text=True)
+    assert run.returncode == 2 and str(error.value) == run.stderr.strip()
