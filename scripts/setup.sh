@@ -20,7 +20,28 @@ packages=(
   python3-jsonschema            # the JSON Schema test of docs/schemas/
   libcpp-httplib-dev            # HTTP server of `tensegrity serve`
   chromium                      # the web app's browser test (playwright-core drives it)
+  # The Python package, built for and tested with Debian's /usr/bin/python3:
+  python3-dev pybind11-dev python3-pybind11 python3-numpy
+  python3-pandas python3-distributed python3-pytest python3-matplotlib
 )
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+
+# `import tensegrity` for /usr/bin/python3 without PYTHONPATH: a .pth file in
+# its site folder names this checkout's build/python (where the build puts the
+# module; a missing folder is skipped by Python until the first build).
+# TENSEGRITY_NO_PTH=1 leaves the interpreter alone.
+install_python_path() {
+  [ "${TENSEGRITY_NO_PTH:-0}" != 1 ] && [ -x /usr/bin/python3 ] || return 0
+  local site pth build_python
+  site=$(/usr/bin/python3 -c 'import site; print(site.getsitepackages()[0])')
+  pth=$site/tensegrity-build.pth
+  build_python=$(cd "$(dirname "$0")/.." && pwd)/build/python
+  [ -f "$pth" ] && [ "$(cat "$pth")" = "$build_python" ] && return 0
+  $SUDO mkdir -p "$site" && echo "$build_python" | $SUDO tee "$pth" >/dev/null &&
+    echo "setup: /usr/bin/python3 imports tensegrity from $build_python ($pth)"
+}
+
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -32,12 +53,11 @@ if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all Debian packages present"
 else
   echo "setup: installing ${missing[*]}"
-  SUDO=""
-  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   export DEBIAN_FRONTEND=noninteractive
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
+install_python_path
 
 # three.js (served to the app) and playwright-core (the browser test), as pinned
 # in the lockfile; npm ci again only when the lockfile changed.
