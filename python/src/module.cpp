@@ -21,7 +21,6 @@
 
 #include "cli/output.hpp"
 #include "cli/renderer.hpp"
-#include "cli/stress_test.hpp"
 #include "model/character.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"
@@ -29,6 +28,7 @@
 #include "model/scene_io.hpp"
 #include "model/solution.hpp"
 #include "model/verify.hpp"
+#include "scenes/families.hpp"
 #include "simulation/simulator.hpp"
 #include "solvers/solver.hpp"
 
@@ -166,7 +166,8 @@ PyResult run_solve(const Structure& scene, const std::string& solver_name, doubl
   options.tolerance = tol;
   options.time_limit_s = time_limit;
   options.max_iterations = max_iterations;
-  options.skip_if_in_equilibrium = skip_if_in_equilibrium;
+  DriverControls controls;
+  controls.skip_if_in_equilibrium = skip_if_in_equilibrium;
   options.verbose = verbose;
   options.backend_options = backend_options;
   const auto solver = cli::checked_solver(solver_name, options);
@@ -176,7 +177,7 @@ PyResult run_solve(const Structure& scene, const std::string& solver_name, doubl
   out.tolerance = tol;
   {
     py::gil_scoped_release release;
-    out.result = solve_scene(*solver, *out.scene, options);
+    out.result = solver->Solve(*out.scene, options, controls);
   }
   return out;
 }
@@ -501,21 +502,21 @@ equilibrium twist at offset 0. Elements: struts, verticals, bottom ring, top rin
         py::arg("gravity") = false, py::arg("fix_bottom") = false,
         "The expandable octahedron: 6 struts of half-length a, 24 cables, in equilibrium.");
 
-  m.def("stress_families", &cli::stress_family_names, "Names of the stress-test perturbation families.");
+  m.def("stress_families", &scenes::family_names, "Names of the stress-test perturbation families.");
   m.def("stress_levels",
         [](const std::string& family) {
           std::vector<std::pair<double, std::string>> v;
-          for (const auto& l : cli::stress_family_levels(family)) v.emplace_back(l.value, l.label);
+          for (const auto& l : scenes::family_levels(family)) v.emplace_back(l.value, l.label);
           return v;
         },
         py::arg("family"), "The (value, label) levels of a stress-test family.");
   m.def("stress_case",
         [](const Structure& base, const std::string& family, int level, int trial, std::uint64_t seed) {
-          const auto levels = cli::stress_family_levels(family);
+          const auto levels = scenes::family_levels(family);
           if (level < 0 || level >= static_cast<int>(levels.size()))
             throw InputError("command line", "level", "must be within 0.." + std::to_string(levels.size() - 1) +
                                                           " for family " + family);
-          Structure s = cli::make_stress_case(base, family, level, trial, seed);
+          Structure s = scenes::make_family_case(base, family, level, trial, seed);
           // As the stress test does: a perturbed scene that breaks a rule is rejected, not solved.
           validate(s, s.name);
           return std::make_shared<Structure>(std::move(s));
@@ -525,7 +526,7 @@ equilibrium twist at offset 0. Elements: struts, verticals, bottom ring, top rin
   m.def("stress_base_scenes",
         [](const std::string& data_dir) {
           std::vector<std::pair<std::string, std::shared_ptr<Structure>>> v;
-          for (auto& b : cli::stress_base_scenes(data_dir))
+          for (auto& b : scenes::base_scenes(data_dir))
             v.emplace_back(b.name, std::make_shared<Structure>(std::move(b.scene)));
           return v;
         },
