@@ -25,5 +25,7 @@ void register_simulate_command(CLI::App& app, CommandRunner& run);
 void register_relax_command(CLI::App& app, CommandRunner& run);
 void register_batch_command(CLI::App& app, CommandRunner& run);
 void register_stress_test_command(CLI::App& app, CommandRunner& run);
+void register_suggest_link_command(CLI::App& app, CommandRunner& run);
+void register_actuation_command(CLI::App& app, CommandRunner& run);
 
 }  // namespace tensegrity::cli

@@ -23,6 +23,8 @@ int main(int argc, char** argv) {
   cli::register_relax_command(app, run);
   cli::register_batch_command(app, run);
   cli::register_stress_test_command(app, run);
+  cli::register_suggest_link_command(app, run);
+  cli::register_actuation_command(app, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
