@@ -27,7 +27,7 @@ StandingPrism standing_prism() {
   p.height = 0.12;
   p.fix_bottom = true;
   const Structure s = make_regular_prism(p);
-  const Eigen::VectorXd sigma = prism_forces(s, 3, 2.0);
+  const Eigen::VectorXd sigma = testing::prism_forces(s, 3, 2.0);
   return {make_linear_elastic_model(s, s.positions, sigma, 0.1), s.positions};
 }
 

