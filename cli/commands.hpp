@@ -28,5 +28,7 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run);
 void register_serve_command(CLI::App& app, CommandRunner& run);
 void register_compare_command(CLI::App& app, CommandRunner& run);
 void register_import_command(CLI::App& app, CommandRunner& run);
+void register_suggest_link_command(CLI::App& app, CommandRunner& run);
+void register_actuation_command(CLI::App& app, CommandRunner& run);
 
 }  // namespace tensegrity::cli

@@ -27,6 +27,8 @@ int main(int argc, char** argv) {
   cli::register_serve_command(app, run);
   cli::register_compare_command(app, run);
   cli::register_import_command(app, run);
+  cli::register_suggest_link_command(app, run);
+  cli::register_actuation_command(app, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

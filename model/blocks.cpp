@@ -5,7 +5,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
+#include <stdexcept>
+#include <tuple>
+#include <Eigen/Geometry>
 
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
@@ -338,6 +342,218 @@ Block make_double_icosahedron_block() {
   return b;
 }
 
+double segment_distance(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& q0,
+                        const Eigen::Vector3d& q1) {
+  // Closest points of two segments (Ericson, Real-Time Collision Detection, 5.1.9).
+  const Eigen::Vector3d d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  const double c = d1.dot(r), b = d1.dot(d2), denom = a * e - b * b;
+  double s = denom > 1e-14 * a * e ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+  double t = (b * s + f) / e;
+  if (t < 0.0) {
+    t = 0.0;
+    s = std::clamp(-c / a, 0.0, 1.0);
+  } else if (t > 1.0) {
+    t = 1.0;
+    s = std::clamp((b - c) / a, 0.0, 1.0);
+  }
+  return ((p0 + s * d1) - (q0 + t * d2)).norm();
+}
+
+bool find_signed_self_stress(const Structure& s, Eigen::VectorXd* forces) {
+  const int n = s.num_nodes(), m = s.num_elements();
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(3 * n, m);
+  for (int e = 0; e < m; ++e) {
+    const auto& el = s.elements[e];
+    const Eigen::Vector3d u = (s.positions.col(el.b) - s.positions.col(el.a)).normalized();
+    A.block<3, 1>(3 * el.a, e) = u;
+    A.block<3, 1>(3 * el.b, e) = -u;
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  int rank = 0;
+  for (int k = 0; k < sv.size(); ++k) rank += sv[k] > 1e-10 * sv[0];
+  if (rank == m) return false;
+  const Eigen::MatrixXd N = svd.matrixV().rightCols(m - rank);
+  Eigen::VectorXd sign(m);
+  for (int e = 0; e < m; ++e) sign[e] = s.elements[e].kind == ElementKind::Cable ? 1.0 : -1.0;
+  constexpr int kMaxSweeps = 5000;
+  constexpr double kAcceptedMargin = 0.5;  // of the box's margin 1
+  Eigen::VectorXd sigma = N * (N.transpose() * sign);
+  for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
+    const Eigen::VectorXd signed_sigma = sigma.cwiseProduct(sign);
+    if (signed_sigma.minCoeff() >= kAcceptedMargin) {
+      *forces = sigma / signed_sigma.minCoeff();
+      return true;
+    }
+    const Eigen::VectorXd boxed = signed_sigma.cwiseMax(1.0).cwiseProduct(sign);
+    sigma = N * (N.transpose() * boxed);
+  }
+  return false;
+}
+
+Structure with_ties(const Block& b, int count) {
+  Structure s = b.structure;
+  ensure_extras(s);
+  for (int k = 0; k < count; ++k) {
+    const int e = s.add_element(b.ties[k][0], b.ties[k][1], ElementKind::Cable);
+    s.element_extra.resize(s.num_elements(), nlohmann::json::object());
+    s.element_extra[e] = {{"name", "tie-" + std::to_string(k)}};
+  }
+  return s;
+}
+
+void add_interior_ties(Block& b, int max_ties, double tie_clearance) {
+  const Structure& s = b.structure;
+  double strut_length = 0.0;
+  std::set<std::pair<int, int>> joined;
+  for (const auto& el : s.elements) {
+    joined.insert(std::minmax(el.a, el.b));
+    if (el.kind == ElementKind::Strut)
+      strut_length = std::max(strut_length, (s.positions.col(el.b) - s.positions.col(el.a)).norm());
+  }
+  for (const auto& t : b.ties) joined.insert(std::minmax(t[0], t[1]));
+  std::vector<std::tuple<double, int, int>> candidates;
+  for (int i = 0; i < s.num_nodes(); ++i)
+    for (int j = i + 1; j < s.num_nodes(); ++j)
+      if (!joined.count({i, j})) candidates.emplace_back((s.positions.col(j) - s.positions.col(i)).norm(), i, j);
+  std::sort(candidates.begin(), candidates.end());
+  const double clearance = tie_clearance * strut_length;
+  int added = 0;
+  for (const auto& [length, i, j] : candidates) {
+    if (added == max_ties) break;
+    Structure trial = with_ties(b, static_cast<int>(b.ties.size()));
+    bool clear = true;
+    for (const auto& el : trial.elements) {
+      if (el.a == i || el.a == j || el.b == i || el.b == j) continue;
+      if (segment_distance(s.positions.col(i), s.positions.col(j), s.positions.col(el.a), s.positions.col(el.b)) <
+          clearance) {
+        clear = false;
+        break;
+      }
+    }
+    if (!clear) continue;
+    trial.add_element(i, j, ElementKind::Cable);
+    Eigen::VectorXd sigma;
+    if (!find_signed_self_stress(trial, &sigma)) continue;
+    b.ties.push_back({i, j});
+    ++added;
+  }
+}
+
+namespace {
+
+// Self-stress normalised to a mean cable force of 1 N; throws if there is none.
+Eigen::VectorXd normalised_self_stress(const Structure& s, const std::string& what) {
+  Eigen::VectorXd f;
+  if (!find_signed_self_stress(s, &f)) throw std::logic_error(what + ": no signed self-stress");
+  double cable_sum = 0.0;
+  int cables = 0;
+  for (int e = 0; e < s.num_elements(); ++e)
+    if (s.elements[e].kind == ElementKind::Cable) {
+      cable_sum += f[e];
+      ++cables;
+    }
+  return f * (cables / cable_sum);
+}
+
+// The six short cables between same-side ends of parallel struts.
+void add_pair_cables(Structure& s, std::vector<std::string>& names) {
+  for (int pair = 0; pair < 3; ++pair)
+    for (int end = 0; end < 2; ++end) {
+      const int a = 4 * pair + end, c = 4 * pair + 2 + end;
+      add_named(s, names, a, c, ElementKind::Cable, "pair-" + std::to_string(a) + "-" + std::to_string(c));
+    }
+}
+
+}  // namespace
+
+Block make_braced_icosahedron_block(double pair_offset) {
+  Block b = make_icosahedron_block();
+  b.name = "icosahedron-braced";
+  b.structure.name = b.name;
+  auto& s = b.structure;
+  for (int i = 0; i < s.num_nodes(); ++i)
+    for (int k = 0; k < 3; ++k)
+      if (std::abs(std::abs(s.positions(k, i)) - 0.5) < 1e-12) s.positions(k, i) = std::copysign(pair_offset, s.positions(k, i));
+  std::vector<std::string> names;
+  for (int e = 0; e < s.num_elements(); ++e) names.push_back(s.element_extra[e].value("name", ""));
+  add_pair_cables(s, names);
+  ensure_extras(s);
+  b.cables.clear();
+  set_cable_names(b, names);
+  b.forces = normalised_self_stress(s, b.name);
+  std::ostringstream src;
+  src << "expandable octahedron (half strut length 1) with its parallel strut pairs " << 2 * pair_offset
+      << " apart and the 6 short cables between the same-side ends of each pair: every one of the 20 "
+         "icosahedron faces is a cable triangle (30 cables); self-stress by alternating projections "
+         "(model/blocks.cpp)";
+  b.source = src.str();
+  add_interior_ties(b, 30);
+  return b;
+}
+
+Block make_braced_prism_block(int n) {
+  Block b = make_diamond_block(n);
+  b.name = "prism-" + std::to_string(n) + "-braced";
+  b.structure.name = b.name;
+  b.source = "the " + std::to_string(n) + "-strut prism braced with a diagonal cable on every side face: " + b.source;
+  add_interior_ties(b, 4 * n);
+  return b;
+}
+
+Block make_braced_double_icosahedron_block(double pair_offset) {
+  Block b = make_double_icosahedron_block();
+  b.name = "double-icosahedron-braced";
+  b.structure.name = b.name;
+  auto& s = b.structure;
+  // Rebuild from the braced geometry: same construction, pair offset changed.
+  const Block ico = make_braced_icosahedron_block(pair_offset);
+  const Block plain = make_icosahedron_block();
+  const auto& shared = plain.faces.at("x+y+z+");
+  const Eigen::Vector3d normal = Eigen::Vector3d(1, 1, 1).normalized();
+  const Eigen::Vector3d shared_centre =
+      (ico.structure.positions.col(shared[0]) + ico.structure.positions.col(shared[1]) +
+       ico.structure.positions.col(shared[2])) / 3.0;
+  const double offset = normal.dot(shared_centre);
+  const Eigen::Matrix3d R = Eigen::Quaterniond::FromTwoVectors(normal, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Vector3d centre = offset * normal;
+  // Node maps of make_double_icosahedron_block: copy A is nodes 0..11, copy B
+  // the mirror images of the nine nodes off the shared face, in order.
+  std::vector<int> map_b(12);
+  int next = 12;
+  for (int i = 0; i < 12; ++i) {
+    const bool on_face = i == shared[0] || i == shared[1] || i == shared[2];
+    map_b[i] = on_face ? i : next++;
+    Eigen::Vector3d x = ico.structure.positions.col(i);
+    s.positions.col(i) = R * (x - centre);
+    if (!on_face) {
+      x -= 2.0 * (normal.dot(x) - offset) * normal;
+      s.positions.col(map_b[i]) = R * (x - centre);
+    }
+  }
+  std::vector<std::string> names;
+  for (int e = 0; e < s.num_elements(); ++e) names.push_back(s.element_extra[e].value("name", ""));
+  for (int pair = 0; pair < 3; ++pair)
+    for (int end = 0; end < 2; ++end) {
+      const int a = 4 * pair + end, c = 4 * pair + 2 + end;
+      add_named(s, names, a, c, ElementKind::Cable, "a.pair-" + std::to_string(a) + "-" + std::to_string(c));
+      add_named(s, names, map_b[a], map_b[c], ElementKind::Cable,
+                "b.pair-" + std::to_string(map_b[a]) + "-" + std::to_string(map_b[c]));
+    }
+  ensure_extras(s);
+  b.cables.clear();
+  set_cable_names(b, names);
+  b.forces = normalised_self_stress(s, b.name);
+  std::ostringstream src;
+  src << "two braced icosahedra (pair offset " << pair_offset
+      << ", 30 cables each) sharing one all-cable face, the second the mirror image of the first in that face's "
+         "plane: 57 cables; self-stress by alternating projections (model/blocks.cpp)";
+  b.source = src.str();
+  add_interior_ties(b, 60);
+  return b;
+}
+
 std::vector<Block> make_standard_blocks() {
   std::vector<Block> blocks;
   for (int n = 3; n <= 12; ++n) blocks.push_back(make_prism_block(n));
@@ -345,6 +561,9 @@ std::vector<Block> make_standard_blocks() {
   blocks.push_back(make_icosahedron_block());
   blocks.push_back(make_diamond_block());
   blocks.push_back(make_double_icosahedron_block());
+  for (int n = 3; n <= 12; ++n) blocks.push_back(make_braced_prism_block(n));
+  blocks.push_back(make_braced_icosahedron_block());
+  blocks.push_back(make_braced_double_icosahedron_block());
   return blocks;
 }
 
@@ -380,6 +599,11 @@ nlohmann::json block_to_json(const Block& b) {
     faces.push_back({{"name", name}, {"nodes", {f[0], f[1], f[2]}}, {"normal", {nrm.x(), nrm.y(), nrm.z()}}});
   }
   j["faces"] = faces;
+  if (!b.ties.empty()) {
+    json ties = json::array();
+    for (const auto& t : b.ties) ties.push_back({t[0], t[1]});
+    j["ties"] = ties;
+  }
   return j;
 }
 
@@ -450,6 +674,22 @@ Block block_from_json(const nlohmann::json& j, const std::string& source) {
       const std::string name = json_string(jf["name"], source, item + ".name");
       if (b.faces.count(name)) throw InputError(source, item, "duplicate face name '" + name + "'");
       b.faces[name] = f;
+    }
+  }
+  if (j.contains("ties")) {
+    if (!j["ties"].is_array()) throw InputError(source, "ties", "must be an array of node pairs");
+    std::set<std::pair<int, int>> joined;
+    for (const auto& el : b.structure.elements) joined.insert(std::minmax(el.a, el.b));
+    for (std::size_t i = 0; i < j["ties"].size(); ++i) {
+      const std::string item = "ties[" + std::to_string(i) + "]";
+      const auto& jt = j["ties"][i];
+      if (!jt.is_array() || jt.size() != 2) throw InputError(source, item, "must be two node indices");
+      const int a = json_index(jt[0], n, "node", source, item + "[0]");
+      const int c = json_index(jt[1], n, "node", source, item + "[1]");
+      if (a == c) throw InputError(source, item, "joins a node to itself");
+      if (!joined.insert(std::minmax(a, c)).second)
+        throw InputError(source, item, "joins two nodes already joined");
+      b.ties.push_back({a, c});
     }
   }
   validate(b.structure, source);

@@ -29,6 +29,10 @@ struct Block {
   Eigen::VectorXd forces;             // self-stress at the template (N), cables > 0 > struts
   std::map<std::string, std::array<int, 3>> faces;  // face name -> three node indices
   std::map<std::string, int> cables;  // cable name -> element index
+  // Optional interior tie cables (node pairs), in the order an instance takes
+  // them: a character block with "ties": k adds the first k. Every prefix keeps
+  // a self-stress with cables > 0 > struts (checked when the list is made).
+  std::vector<std::array<int, 2>> ties;
 
   int num_struts() const;
   int num_cables() const;
@@ -51,6 +55,37 @@ Block make_diamond_block(int n = 4, double diagonal_ratio = 0.5);
 // Two expandable octahedra sharing one all-cable face, the second the mirror
 // image of the first in that face's plane (a superposition of two self-stresses).
 Block make_double_icosahedron_block();
+// Braced templates. The paper's characters carry more cables than the minimal
+// templates (duck 253, scorpion 523, against 174 and 420 with minimal blocks);
+// these add the bracing cables physical builds use, each at a geometry where the
+// extra cables carry tension (docs/CHARACTERS.md gives the counting):
+//   icosahedron-braced          the 6 short cables between the ends of parallel
+//                               struts (all 20 icosahedron faces become cable
+//                               triangles): 30 cables. They carry tension only
+//                               for a pair offset h < a/2 (symmetric balance at
+//                               a strut end: q_pair = q_cable (a - 2h) / h), so
+//                               the pairs sit pair_offset apart (a = 1).
+//   prism-<n>-braced            the diamond-pattern cylinder (a side diagonal on
+//                               every side face): 4n cables.
+//   double-icosahedron-braced   two braced icosahedra sharing a face: 57 cables.
+// Each also lists interior ties (see Block::ties): node pairs by increasing
+// length whose segment clears every element not sharing a node by
+// tie_clearance times the strut length and that keep a signed self-stress.
+Block make_braced_icosahedron_block(double pair_offset = 0.4);
+Block make_braced_prism_block(int n);
+Block make_braced_double_icosahedron_block(double pair_offset = 0.4);
+// Appends up to max_ties interior ties to b.ties (rule above).
+void add_interior_ties(Block& b, int max_ties, double tie_clearance = 0.1);
+// A self-stress of `s` with cables >= 1 and struts <= -1 (N), by alternating
+// projections between the null space of the equilibrium matrix and that box;
+// false when none is found (e.g. the cables cannot all be tensioned there).
+bool find_signed_self_stress(const Structure& s, Eigen::VectorXd* forces);
+// The structure with the first `count` ties of b added as cables "tie-<k>".
+Structure with_ties(const Block& b, int count);
+// Closest distance between segments p0-p1 and q0-q1.
+double segment_distance(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const Eigen::Vector3d& q0,
+                        const Eigen::Vector3d& q1);
+
 // All of the above that data/blocks/ holds.
 std::vector<Block> make_standard_blocks();
 

@@ -154,6 +154,15 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
       if (e < static_cast<int>(ex.size()) && ex[e].contains("name")) s.element_extra[id]["name"] = ex[e]["name"];
       inst.element_ids.push_back(id);
     }
+    if (jb.contains("ties")) {
+      const int available = static_cast<int>(inst.block->ties.size());
+      const int k = json_index(jb["ties"], available + 1, "tie count", source, item + ".ties");
+      for (int t = 0; t < k; ++t) {
+        const auto& tie = inst.block->ties[t];
+        const int id = s.add_element(inst.node_map[tie[0]], inst.node_map[tie[1]], ElementKind::Cable);
+        s.element_extra[id] = {{"block", inst.id}, {"tie", t}, {"name", "tie-" + std::to_string(t)}};
+      }
+    }
     order.push_back(inst.id);
     instances[inst.id] = std::move(inst);
     ++out.counts.blocks;

@@ -9,7 +9,8 @@
 //    "strut_density": 0.03, "cable_density": 0.002,   // kg/m: element mass = density * length
 //    "blocks": [{"id": "body", "type": "double-icosahedron", "scale": 0.06,
 //                "rotation_deg": [0, 0, 90], "translation": [0, 0, 0.2],
-//                "displacements": [{"node": 3, "by": [0, 0, 0.1]}]}],
+//                "displacements": [{"node": 3, "by": [0, 0, 0.1]}],
+//                "ties": 4}],                  // optional: the block's first 4 interior ties
 //    "links": [{"id": "neck", "type": "face",
 //               "a": {"block": "body", "face": "a.x+y+z-"},    // or "facing": [x,y,z],
 //               "b": {"block": "neck", "toward": "body"},      // or nothing: toward the other block

@@ -1,5 +1,6 @@
-// The block library: every template is in equilibrium at its template geometry
-// (stress QP relative residual <= 1e-10), with the documented counts; the data
+// The block library: every template (and every prefix of its interior ties) is
+// in equilibrium at its template geometry (stress QP relative residual <= 1e-10)
+// and prestress stable, with the documented counts; the data
 // files match the generators; instancing by a similarity keeps equilibrium.
 #include <gtest/gtest.h>
 
@@ -14,6 +15,7 @@
 #include "model/blocks.hpp"
 #include "model/errors.hpp"
 #include "model/verify.hpp"
+#include "simulation/stability.hpp"
 
 namespace tensegrity {
 namespace {
@@ -44,6 +46,9 @@ std::vector<ExpectedCounts> expected_counts() {
   out.push_back({"icosahedron", 12, 6, 24});
   out.push_back({"diamond", 8, 4, 16});
   out.push_back({"double-icosahedron", 21, 12, 45});
+  for (int n = 3; n <= 12; ++n) out.push_back({"prism-" + std::to_string(n) + "-braced", 2 * n, n, 4 * n});
+  out.push_back({"icosahedron-braced", 12, 6, 30});
+  out.push_back({"double-icosahedron-braced", 21, 12, 57});
   return out;
 }
 
@@ -118,7 +123,56 @@ TEST(Blocks, FilesMatchTheGenerators) {
     EXPECT_LE((f.forces - g.forces).cwiseAbs().maxCoeff(), 1e-14);
     EXPECT_EQ(f.faces, g.faces);
     EXPECT_EQ(f.cables, g.cables);
+    EXPECT_EQ(f.ties, g.ties);
   }
+}
+
+// Every template, with every prefix of its ties, is a tensegrity at its
+// template geometry (stress QP) and prestress stable there.
+TEST(Blocks, EveryTemplateAndTiePrefixIsPrestressStable) {
+  const BlockLibrary lib = BlockLibrary::load(kBlockDir);
+  int checked = 0;
+  for (const auto& name : lib.names()) {
+    const Block& b = lib.get(name, "test", "");
+    for (int k = 0; k <= static_cast<int>(b.ties.size()); ++k) {
+      SCOPED_TRACE(name + " with " + std::to_string(k) + " ties");
+      const Structure s = with_ties(b, k);
+      Eigen::VectorXd sigma;
+      ASSERT_LE(stress_qp_relative_residual(s, &sigma), 1e-10);
+      const Verification v = verify(s, s.positions, sigma, 1e-10);
+      EXPECT_EQ(v.wrong_signs, 0);
+      const PrestressReport p = prestress_stability(s, s.positions, sigma);
+      EXPECT_TRUE(p.prestress_stable) << p.message;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 40);
+}
+
+// The braced icosahedron's symmetric force densities (header of
+// model/blocks.hpp): cables 1, short pair cables (1 - 2h)/h, struts h - 2
+// balance every node (half strut length 1, pair offset h).
+TEST(Blocks, BracedIcosahedronSymmetricSelfStress) {
+  for (double h : {0.3, 0.4, 0.45}) {
+    const Block b = make_braced_icosahedron_block(h);
+    const auto& s = b.structure;
+    Eigen::VectorXd f(s.num_elements());
+    for (int e = 0; e < s.num_elements(); ++e) {
+      const auto& el = s.elements[e];
+      const double l = (s.positions.col(el.b) - s.positions.col(el.a)).norm();
+      const bool pair = std::abs(l - 2.0 * h) < 1e-12;
+      const double q = el.kind == ElementKind::Strut ? h - 2.0 : pair ? (1.0 - 2.0 * h) / h : 1.0;
+      f[e] = q * l;
+    }
+    EXPECT_LE(relative_self_stress_residual(s, s.positions, f), 1e-14);
+    EXPECT_EQ(b.num_cables(), 30);
+  }
+}
+
+TEST(Blocks, SegmentDistance) {
+  EXPECT_NEAR(segment_distance({0, 0, 0}, {1, 0, 0}, {0.5, 1, 1}, {0.5, 1, -1}), 1.0, 1e-15);
+  EXPECT_NEAR(segment_distance({0, 0, 0}, {1, 0, 0}, {2, 1, 0}, {3, 1, 0}), std::sqrt(2.0), 1e-15);
+  EXPECT_NEAR(segment_distance({0, 0, 0}, {1, 0, 0}, {0, 2, 0}, {1, 2, 0}), 2.0, 1e-15);
 }
 
 TEST(Blocks, DiamondStrutsStayApart) {

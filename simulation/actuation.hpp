@@ -1,0 +1,66 @@
+#pragma once
+// Actuation: which few cables or struts, changed in rest length, move a
+// character into desired poses (paper, section 6: "computing minimal sets of
+// actuation elements that are able to generate a desired range of motions").
+//
+// The character is an elastic model (formulations/elastic_energy.hpp) at its
+// static equilibrium x0 under gravity. A pose asks target positions t for some
+// nodes. Linearised kinematics: equilibrium grad_x E(x, L) = 0, so
+//   K dx = -sum_e (d sigma_e / d L_e) (d l_e / d x) dL_e,
+//   d sigma_e / d L_e = -f_e'(eps_e) l_e / L_e^2          (sigma_e = f_e(l_e / L_e - 1)),
+// with K the Hessian of E over the free coordinates; J_p = rows of dx/dL at
+// the target coordinates of pose p (m per m of rest length).
+// Selection (simultaneous orthogonal matching pursuit over all poses): the
+// element whose normalised column best explains the remaining residuals of
+// all poses joins the set; each pose gets its own least-squares rest-length
+// changes on the set. Then for each set size, a damped Gauss-Newton on the
+// nonlinear model: rest lengths L + dL, static relax (solvers/simulator.hpp),
+// residual at the targets, J re-linearised at the relaxed state. The reached
+// error is that of the verified static solve.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "formulations/elastic_energy.hpp"
+
+namespace tensegrity {
+
+struct PoseTarget {
+  int node = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // m
+};
+
+struct Pose {
+  std::string name;
+  std::vector<PoseTarget> targets;
+};
+
+struct ActuationOptions {
+  int max_actuators = 6;
+  int newton_iterations = 8;
+  double max_relative_change = 0.5;  // |dL / L| per step is scaled down to this
+  bool cables_only = false;          // struts may also change length when false
+};
+
+struct PoseResult {
+  std::string name;
+  Eigen::VectorXd rest_length_change;  // m, one per chosen element (set order)
+  double initial_error = 0.0;          // rms distance to the targets at x0 (m)
+  double linear_error = 0.0;           // rms predicted by the linearisation (m)
+  double reached_error = 0.0;          // rms after the nonlinear solve, verified by relax (m)
+  double max_error = 0.0;              // largest target distance after the solve (m)
+};
+
+struct ActuationLevel {
+  std::vector<int> elements;  // chosen elements, in order of selection
+  std::vector<PoseResult> poses;
+};
+
+// One level per set size 1..max_actuators (each set extends the previous).
+std::vector<ActuationLevel> find_actuators(const ElasticModel& model, const Eigen::Matrix3Xd& equilibrium,
+                                           const std::vector<Pose>& poses, const ActuationOptions& options = {});
+
+// d x / d L at the free coordinates (3 n_free x m) at equilibrium x.
+Eigen::MatrixXd rest_length_sensitivity(const ElasticEnergy& energy, const Eigen::Matrix3Xd& x);
+
+}  // namespace tensegrity
