@@ -41,7 +41,7 @@ progress() {
 step 1/4 "setup and build (Release)"
 bash scripts/setup.sh
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build "$build" -j"$(nproc)" --target tensegrity compare_bench 2>&1 |
+cmake --build "$build" -j"$(nproc)" --target tensegrity compare_bench tensegrity_python 2>&1 |
   grep --line-buffered -E '^\[ *[0-9]+%\] (Built|Linking)|error|warning' || true
 [ -x "$build"/tensegrity ] && [ -x "$build"/bench/compare_bench ] || { echo "build failed" >&2; exit 1; }
 rm -rf "$out"
