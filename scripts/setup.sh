@@ -14,6 +14,7 @@ packages=(
   libcairo2-dev                 # drawing (render command)
   gnuplot-nox                   # benchmark plots
   clang libclang-rt-14-dev      # sanitizer and fuzzer builds
+  python3-numpy                 # tests/reference/compute_optima.py (reference optima)
 )
 missing=()
 for p in "${packages[@]}"; do
