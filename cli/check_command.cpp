@@ -21,6 +21,7 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
     bool stability = false;     // --stability: tangent-stiffness test (solvers/stability.hpp)
     std::string design;         // material model for it; else linear cords
     double cable_strain = 0.1;  // strain of those linear cords under their force
+    bool json = false;          // --json: one JSON object on standard output instead of the text
   };
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("check", "Re-verify a solution against its scene (exit 0 only if it verifies)");
@@ -30,6 +31,7 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
   cmd->add_flag("--stability", args->stability,
                 "Also test stability: smallest tangent-stiffness eigenvalues, prestress stability (exit 0 only if stable)");
   cmd->add_option("--design", args->design, "With --stability: take cable materials and rest lengths from this design");
+  cmd->add_flag("--json", args->json, "Print the verification as one JSON object (without --stability)");
   cmd->add_option("--cable-strain", args->cable_strain,
                   "With --stability and no --design: cables as linear cords at this strain (default 0.1)");
   cmd->callback([args, &run] {
@@ -39,6 +41,22 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
       const Structure scene = read_scene_file(args->scene);
       const Solution sol = read_solution_file(args->solution, scene);
       const Verification v = verify(scene, sol.positions, sol.forces, args->tol);
+      if (args->json) {
+        if (args->stability) throw InputError("command line", "--json", "not with --stability");
+        const nlohmann::json j = {{"verified", v.ok},
+                                  {"residual", v.residual},
+                                  {"relative_residual", v.relative_residual},
+                                  {"load_scale", v.load_scale},
+                                  {"tolerance", args->tol},
+                                  {"wrong_signs", v.wrong_signs},
+                                  {"moved_fixed_nodes", v.moved_fixed_nodes},
+                                  {"all_finite", v.all_finite},
+                                  {"geometry_change", v.geometry_change},
+                                  {"status_claimed", std::string(to_string(sol.status))},
+                                  {"problems", v.problems}};
+        std::printf("%s\n", j.dump(2).c_str());
+        return v.ok ? 0 : 1;
+      }
       std::printf("residual          %.6g N\n", v.residual);
       std::printf("relative_residual %.6g (load scale %.6g N, tolerance %.3g)\n", v.relative_residual,
                   v.load_scale, args->tol);

@@ -25,5 +25,8 @@ void register_simulate_command(CLI::App& app, CommandRunner& run);
 void register_relax_command(CLI::App& app, CommandRunner& run);
 void register_batch_command(CLI::App& app, CommandRunner& run);
 void register_stress_test_command(CLI::App& app, CommandRunner& run);
+void register_serve_command(CLI::App& app, CommandRunner& run);
+void register_compare_command(CLI::App& app, CommandRunner& run);
+void register_import_command(CLI::App& app, CommandRunner& run);
 
 }  // namespace tensegrity::cli

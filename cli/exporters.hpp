@@ -1,9 +1,16 @@
 #pragma once
-// Line-geometry exports of a scene at given positions with per-element forces:
-// VTK legacy (ParaView: cell data "force" in N and "kind" 0 strut / 1 cable),
-// PLY (an "edge" element with force and kind properties; Blender, MeshLab) and
-// Wavefront OBJ (polylines in groups "struts" and "cables", the force of each
-// line in a comment, since OBJ has no per-line data).
+// Exports of a scene at given positions with per-element forces, and the
+// choice of format from a file name:
+//   .vtk       VTK legacy polydata (ParaView): cell data "force" (N) and "kind"
+//              (0 strut, 1 cable), point data "fixed"; `simulate` writes the same.
+//   .ply       an "edge" element with force and kind properties (MeshLab).
+//   .obj       Wavefront OBJ: two vertices per element, coloured by its force
+//              ("v x y z r g b": blue compression, grey zero, red tension,
+//              scaled by the largest |force|), lines grouped "struts" and
+//              "cables"; Blender imports the colours as a vertex colour
+//              attribute. The forces themselves go to a companion CSV.
+//   .yaml/.yml NTRT YAML (cli/ntrt_yaml.hpp).
+//   .mjcf.xml, .xml  MuJoCo MJCF, designs only (cli/mjcf.hpp).
 #include <Eigen/Core>
 #include <string>
 
@@ -11,12 +18,21 @@
 
 namespace tensegrity::cli {
 
-enum class ExportFormat { Vtk, Obj, Ply };
+enum class ExportFormat { Vtk, Obj, Ply, NtrtYaml, Mjcf };
 
 // Throws InputError("command line", "--format", ...) for an unknown name.
 ExportFormat export_format_from_string(const std::string& name);
+// The format named by `format` when not empty, else by the extension of
+// `path`; InputError when neither says.
+ExportFormat export_format_for(const std::string& path, const std::string& format);
 
+// Vtk, Obj or Ply text. `title` goes in the VTK header line.
 std::string export_lines(const Structure& scene, const Eigen::Matrix3Xd& positions, const Eigen::VectorXd& forces,
-                         ExportFormat format);
+                         ExportFormat format, const std::string& title = "");
+// The OBJ's companion: "element,name,kind,node_a,node_b,force_N", one row per element.
+std::string element_forces_csv(const Structure& scene, const Eigen::VectorXd& forces);
+// "a.strut-0" style element names where the scene carries block/link and a
+// local id, else "strut-E" / "cable-E" with the global index.
+std::string element_name(const Structure& scene, int e);
 
 }  // namespace tensegrity::cli

@@ -3,6 +3,7 @@
 
 #include "cli/commands.hpp"
 #include "model/errors.hpp"
+#include "model/known_keys.hpp"
 
 int main(int argc, char** argv) {
   using namespace tensegrity;
@@ -23,6 +24,9 @@ int main(int argc, char** argv) {
   cli::register_relax_command(app, run);
   cli::register_batch_command(app, run);
   cli::register_stress_test_command(app, run);
+  cli::register_serve_command(app, run);
+  cli::register_compare_command(app, run);
+  cli::register_import_command(app, run);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -33,6 +37,10 @@ int main(int argc, char** argv) {
     std::cerr << "tensegrity: usage: " << e.what() << "\n";
     return 2;
   }
+  // Accepted input worth a word (unknown keys kept) gets one line per file.
+  const ScopedInputWarningSink warnings([](const std::string& file, const std::string& message) {
+    std::cerr << "tensegrity: " << file << ": warning: " << message << "\n";
+  });
   try {
     return run ? run() : 2;
   } catch (const OptionError& e) {

@@ -1,9 +1,15 @@
-// tensegrity render SCENE [--solution SOLUTION] --out FILE.png|.svg [--view front|side|top|iso]
+// tensegrity render INPUT [--solution SOLUTION | --frames FRAMES.jsonl [--frame K]] --out FILE.png|.svg
+//                  [--view front|side|top|iso] [--colour-by force|strain|block|kind] [--labels] [--no-legend]
+//                  [--no-reference]
+// INPUT is a scene or a design file.
+#include <fstream>
 #include <memory>
 #include <optional>
 
 #include "cli/commands.hpp"
 #include "cli/renderer.hpp"
+#include "model/design.hpp"
+#include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/solution.hpp"
 
@@ -11,33 +17,102 @@ namespace tensegrity::cli {
 
 namespace {
 struct RenderArgs {
-  std::string scene, solution, out;
+  std::string input, solution, frames, out;
+  int frame = -1;  // -1: the last
+  bool no_legend = false, no_reference = false;
   RenderOptions options;
 };
+
+// Positions and forces of frame `index` of a `simulate` JSON Lines file.
+std::pair<Eigen::Matrix3Xd, Eigen::VectorXd> read_frame(const std::string& path, int index, const Structure& s,
+                                                        double* time) {
+  std::istringstream in(read_text_file(path));
+  std::string line, chosen;
+  int count = 0;
+  while (std::getline(in, line))
+    if (!line.empty()) {
+      if (count == index || index < 0) chosen = line;
+      ++count;
+    }
+  if (chosen.empty())
+    throw InputError(path, "--frame " + std::to_string(index), "no such frame (" + std::to_string(count) + " frames)");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(chosen);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path, "frame", e.what());
+  }
+  if (!j.contains("positions") || !j["positions"].is_array() || j["positions"].size() != static_cast<std::size_t>(s.num_nodes()))
+    throw InputError(path, "positions", "not one position per node of the design");
+  if (!j.contains("forces") || !j["forces"].is_array() || j["forces"].size() != static_cast<std::size_t>(s.num_elements()))
+    throw InputError(path, "forces", "not one force per element of the design");
+  Eigen::Matrix3Xd x(3, s.num_nodes());
+  Eigen::VectorXd f(s.num_elements());
+  try {
+    for (int i = 0; i < s.num_nodes(); ++i)
+      for (int k = 0; k < 3; ++k) x(k, i) = j["positions"][i].at(k).get<double>();
+    for (int e = 0; e < s.num_elements(); ++e) f[e] = j["forces"][e].get<double>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path, "frame", e.what());
+  }
+  if (!x.allFinite() || !f.allFinite()) throw InputError(path, "frame", "non-finite number");
+  *time = j.value("time", 0.0);
+  return {x, f};
+}
+
+int run_render(RenderArgs& a) {
+  a.options.legend = !a.no_legend;
+  const nlohmann::json j = read_json_file(a.input);
+  const bool design_input = j.is_object() && j.value("format", "") == "tensegrity-design";
+  RenderData data;
+  if (design_input) {
+    const Design d = design_from_json(j, a.input);
+    const Structure& s = d.structure;
+    data.strains = d.strains;
+    if (!a.frames.empty()) {
+      double time = 0.0;
+      auto [x, f] = read_frame(a.frames, a.frame, s, &time);
+      data.forces = f;
+      if (!a.no_reference) data.reference = d.solution.positions;
+      if (a.options.title.empty()) a.options.title = s.name + ", t = " + std::to_string(time).substr(0, 6) + " s";
+      render_structure(s, x, data, a.options, a.out);
+    } else {
+      data.forces = d.solution.forces;
+      render_structure(s, d.solution.positions, data, a.options, a.out);
+    }
+    return 0;
+  }
+  if (!a.frames.empty()) throw InputError("command line", "--frames", "frames belong to a design: give the design file");
+  const Structure scene = scene_from_json(j, a.input);
+  if (a.solution.empty()) {
+    render_structure(scene, scene.positions, data, a.options, a.out);
+  } else {
+    const Solution sol = read_solution_file(a.solution, scene);
+    data.forces = sol.forces;
+    if (!a.no_reference) data.reference = scene.positions;
+    render_structure(scene, sol.positions, data, a.options, a.out);
+  }
+  return 0;
+}
 }  // namespace
 
 void register_render_command(CLI::App& app, CommandRunner& run) {
   auto args = std::make_shared<RenderArgs>();
-  auto* cmd = app.add_subcommand("render", "Draw a scene (or a solution of it) to PNG or SVG");
-  cmd->add_option("scene", args->scene, "Scene file (*.scene.json)")->required();
-  cmd->add_option("--solution", args->solution, "Draw this solution's positions, coloured by its forces");
+  auto* cmd = app.add_subcommand("render", "Draw a scene, a solution, a design or a simulation frame to PNG or SVG");
+  cmd->add_option("input", args->input, "Scene (*.scene.json) or design file")->required();
+  cmd->add_option("--solution", args->solution, "Draw this solution of the scene, coloured by its forces");
+  cmd->add_option("--frames", args->frames, "With a design: `simulate --out` frames (JSON Lines)");
+  cmd->add_option("--frame", args->frame, "Frame to draw (0-based; default the last)");
   cmd->add_option("--out", args->out, "Picture file (.png or .svg)")->required();
   cmd->add_option("--view", args->options.view, "front, side, top or iso");
+  cmd->add_option("--colour-by,--color-by", args->options.colour_by, "force (default), strain (designs), block or kind");
+  cmd->add_flag("--labels", args->options.labels, "Write node and element ids");
+  cmd->add_flag("--no-legend", args->no_legend, "No key, colour bar, scale bar or axes");
+  cmd->add_flag("--no-reference", args->no_reference, "Do not draw the shape before form finding behind the result");
   cmd->add_option("--width", args->options.width, "Width in pixels")->check(CLI::Range(64, 8192));
   cmd->add_option("--height", args->options.height, "Height in pixels")->check(CLI::Range(64, 8192));
   cmd->add_option("--title", args->options.title, "Caption in the top-left corner");
-  cmd->callback([args, &run] {
-    run = [args] {
-      const Structure scene = read_scene_file(args->scene);
-      if (args->solution.empty()) {
-        render_scene(scene, scene.positions, std::nullopt, args->options, args->out);
-      } else {
-        const Solution sol = read_solution_file(args->solution, scene);
-        render_scene(scene, sol.positions, sol.forces, args->options, args->out);
-      }
-      return 0;
-    };
-  });
+  cmd->callback([args, &run] { run = [args] { return run_render(*args); }; });
 }
 
 }  // namespace tensegrity::cli

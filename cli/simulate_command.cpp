@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "cli/commands.hpp"
+#include "cli/exporters.hpp"
 #include "cli/renderer.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"
@@ -117,19 +118,10 @@ std::string g17(double v) {
   return buf;
 }
 
+// The same arrays as `tensegrity export` (cli/exporters.hpp).
 void write_vtk(const std::string& path, const Structure& s, const Eigen::Matrix3Xd& x, const Eigen::VectorXd& forces,
                double time) {
-  std::ostringstream o;
-  o << "# vtk DataFile Version 3.0\ntensegrity " << s.name << " t=" << g17(time) << "\nASCII\nDATASET POLYDATA\n";
-  o << "POINTS " << x.cols() << " double\n";
-  for (int i = 0; i < x.cols(); ++i) o << g17(x(0, i)) << ' ' << g17(x(1, i)) << ' ' << g17(x(2, i)) << '\n';
-  o << "LINES " << s.num_elements() << ' ' << 3 * s.num_elements() << '\n';
-  for (const Element& e : s.elements) o << "2 " << e.a << ' ' << e.b << '\n';
-  o << "CELL_DATA " << s.num_elements() << "\nSCALARS force double 1\nLOOKUP_TABLE default\n";
-  for (int e = 0; e < s.num_elements(); ++e) o << g17(forces[e]) << '\n';
-  o << "SCALARS strut int 1\nLOOKUP_TABLE default\n";
-  for (const Element& e : s.elements) o << (e.kind == ElementKind::Strut ? 1 : 0) << '\n';
-  write_text_file_atomically(path, o.str());
+  write_text_file_atomically(path, export_lines(s, x, forces, ExportFormat::Vtk, "tensegrity " + s.name + " t=" + g17(time)));
 }
 
 // Six evenly spaced frames side by side.

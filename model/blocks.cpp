@@ -10,6 +10,7 @@
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
 #include "model/json_text.hpp"
+#include "model/known_keys.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"
 
@@ -47,6 +48,13 @@ void set_cable_names(Block& b, const std::vector<std::string>& names) {
     if (b.structure.elements[e].kind == ElementKind::Cable && !names[e].empty()) b.cables[names[e]] = e;
   }
 }
+
+// The keys of a block file (docs/FORMATS.md).
+const std::vector<std::string_view> kBlockKeys = {"format", "version", "name",     "source",
+                                                                "counts", "nodes",   "elements", "faces"};
+const std::vector<std::string_view> kBlockCountKeys = {"nodes", "struts", "cables"};
+const std::vector<std::string_view> kBlockElementKeys = {"kind", "nodes", "force", "name"};
+const std::vector<std::string_view> kBlockFaceKeys = {"name", "nodes", "normal"};
 
 void ensure_extras(Structure& s) {
   s.node_extra.resize(s.num_nodes(), nlohmann::json::object());
@@ -377,6 +385,9 @@ nlohmann::json block_to_json(const Block& b) {
 
 Block block_from_json(const nlohmann::json& j, const std::string& source) {
   json_expect_header(j, "tensegrity-block", source);
+  KeyChecker keys(source);
+  keys.check(j, kBlockKeys, "");
+  if (j.contains("counts")) keys.check(j["counts"], kBlockCountKeys, "counts");
   Block b;
   if (!j.contains("name")) throw InputError(source, "name", "missing");
   b.name = json_string(j["name"], source, "name");
@@ -396,6 +407,7 @@ Block block_from_json(const nlohmann::json& j, const std::string& source) {
     const std::string item = "elements[" + std::to_string(e) + "]";
     const auto& je = elements[e];
     if (!je.is_object()) throw InputError(source, item, "not an object");
+    keys.check(je, kBlockElementKeys, item);
     const std::string kind = je.contains("kind") ? json_string(je["kind"], source, item + ".kind") : "";
     ElementKind k;
     if (kind == "strut")
@@ -428,6 +440,7 @@ Block block_from_json(const nlohmann::json& j, const std::string& source) {
     for (std::size_t i = 0; i < j["faces"].size(); ++i) {
       const std::string item = "faces[" + std::to_string(i) + "]";
       const auto& jf = j["faces"][i];
+      keys.check(jf, kBlockFaceKeys, item);
       if (!jf.is_object() || !jf.contains("name") || !jf.contains("nodes") || !jf["nodes"].is_array() ||
           jf["nodes"].size() != 3)
         throw InputError(source, item, "must be an object with a name and three node indices");
@@ -440,6 +453,7 @@ Block block_from_json(const nlohmann::json& j, const std::string& source) {
     }
   }
   validate(b.structure, source);
+  keys.report();
   return b;
 }
 

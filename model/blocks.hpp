@@ -2,7 +2,7 @@
 // The building-block library (paper, section 4): template tensegrities that
 // characters are assembled from. Each block is stored as
 // data/blocks/<name>.block.json (format "tensegrity-block", version 1; the
-// format is documented in data/blocks/README.md) and carries
+// format is documented in docs/FORMATS.md) and carries
 //   - its template geometry (m, unit scale: instancing scales it),
 //   - a self-stress `forces` (N, mean cable force 1) that puts the template in
 //     equilibrium: sum_e sigma_e (x_j - x_i)/|x_j - x_i| = 0 at every node,

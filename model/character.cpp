@@ -11,12 +11,24 @@
 
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
+#include "model/known_keys.hpp"
 #include "model/links.hpp"
 #include "model/scene_io.hpp"
 
 namespace tensegrity {
 
 namespace {
+
+// The keys of a character file (docs/FORMATS.md).
+const std::vector<std::string_view> kCharacterKeys = {
+    "format", "version", "name", "description", "block_library", "gravity",
+    "strut_density", "cable_density", "blocks", "links", "ground"};
+const std::vector<std::string_view> kBlockInstanceKeys = {
+    "id", "type", "scale", "rotation_deg", "translation", "displacements"};
+const std::vector<std::string_view> kDisplacementKeys = {"node", "by"};
+const std::vector<std::string_view> kLinkKeys = {"id", "type", "a", "b", "depth"};
+const std::vector<std::string_view> kLinkSideKeys = {"block", "face", "facing", "toward", "cable"};
+const std::vector<std::string_view> kGroundKeys = {"block", "lowest", "nodes"};
 
 struct Instance {
   std::string id;
@@ -83,6 +95,8 @@ CharacterCounts count_structure(const Structure& s) {
 
 BuiltCharacter build_character(const nlohmann::json& j, const std::string& source, const BlockLibrary& library) {
   json_expect_header(j, "tensegrity-character", source);
+  KeyChecker keys(source);
+  keys.check(j, kCharacterKeys, "");
   BuiltCharacter out;
   Structure& s = out.structure;
   s.name = j.contains("name") ? json_string(j["name"], source, "name") : std::string("character");
@@ -101,6 +115,7 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
     const std::string item = "blocks[" + std::to_string(bi) + "]";
     const auto& jb = j["blocks"][bi];
     if (!jb.is_object()) throw InputError(source, item, "not an object");
+    keys.check(jb, kBlockInstanceKeys, item);
     if (!jb.contains("id")) throw InputError(source, item + ".id", "missing");
     if (!jb.contains("type")) throw InputError(source, item + ".type", "missing");
     Instance inst;
@@ -118,6 +133,7 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
       if (!jd.is_array()) throw InputError(source, item + ".displacements", "must be an array");
       for (std::size_t k = 0; k < jd.size(); ++k) {
         const std::string it = item + ".displacements[" + std::to_string(k) + "]";
+        keys.check(jd[k], kDisplacementKeys, it);
         if (!jd[k].is_object() || !jd[k].contains("node") || !jd[k].contains("by"))
           throw InputError(source, it, "must be {\"node\": index, \"by\": [dx, dy, dz]}");
         const int node = json_index(jd[k]["node"], inst.block->structure.num_nodes(), "node", source, it + ".node");
@@ -158,6 +174,9 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
       const std::string item = "links[" + std::to_string(li) + "]";
       const auto& jl = j["links"][li];
       if (!jl.is_object()) throw InputError(source, item, "not an object");
+      keys.check(jl, kLinkKeys, item);
+      for (const char* side : {"a", "b"})
+        if (jl.contains(side)) keys.check(jl[side], kLinkSideKeys, item + "." + side);
       const std::string id =
           jl.contains("id") ? json_string(jl["id"], source, item + ".id") : "link-" + std::to_string(li);
       if (!link_ids.insert(id).second) throw InputError(source, item + ".id", "duplicate link id '" + id + "'");
@@ -247,6 +266,7 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
         s.fixed[json_index(jg, s.num_nodes(), "node", source, item)] = true;
         continue;
       }
+      keys.check(jg, kGroundKeys, item);
       if (!jg.is_object() || !jg.contains("block"))
         throw InputError(source, item, "must be a scene node index or {\"block\": id, \"lowest\": k | \"nodes\": [...]}");
       Instance& inst = find_instance(jg["block"], item + ".block");
@@ -282,6 +302,7 @@ BuiltCharacter build_character(const nlohmann::json& j, const std::string& sourc
   out.counts.cables = c.cables;
   out.counts.fixed_nodes = c.fixed_nodes;
   out.counts.mass = c.mass;
+  keys.report();
   return out;
 }
 

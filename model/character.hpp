@@ -1,7 +1,7 @@
 #pragma once
 // Characters: block instances joined by links, standing on fixed ground nodes
 // under gravity (paper, section 4). File format "tensegrity-character",
-// version 1 (data/blocks/README.md documents every field):
+// version 1 (docs/FORMATS.md documents every field):
 //
 //   {"format": "tensegrity-character", "version": 1, "name": "duck",
 //    "block_library": "../blocks",            // optional, relative to the file

@@ -1,10 +1,13 @@
 #include "model/design.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "model/errors.hpp"
+#include "model/format_keys.hpp"
 #include "model/json_io.hpp"
 #include "model/json_text.hpp"
+#include "model/known_keys.hpp"
 #include "model/scene_io.hpp"
 
 namespace tensegrity {
@@ -16,6 +19,19 @@ namespace {
 // Keys of a design file that are not scene keys.
 const char* const kDesignKeys[] = {"scene",        "solver",  "status",    "positions", "forces", "stats",
                                    "rest_lengths", "strains", "materials", "design"};
+
+// Every top-level key of a design file: the scene's, the ones above, and the
+// solution's optional ones.
+const std::vector<std::string_view>& design_keys() {
+  static const std::vector<std::string_view> keys = [] {
+    std::vector<std::string_view> k = scene_keys();
+    k.insert(k.end(), std::begin(kDesignKeys), std::end(kDesignKeys));
+    for (const std::string_view key : solution_keys())
+      if (std::find(k.begin(), k.end(), key) == k.end()) k.push_back(key);
+    return k;
+  }();
+  return keys;
+}
 
 json numbers(const Eigen::VectorXd& v) {
   json a = json::array();
@@ -71,11 +87,22 @@ void write_design_file(const Design& d, const std::string& path) {
 
 Design design_from_json(const json& j, const std::string& source) {
   json_expect_header(j, "tensegrity-design", source);
+  KeyChecker keys(source);
+  keys.check(j, design_keys(), "");
+  if (j.contains("stats")) keys.check(j.at("stats"), solution_stats_keys(), "stats");
   json scene = j;
   for (const char* key : kDesignKeys) scene.erase(key);
-  scene["format"] = "tensegrity-scene";
   Design d;
-  d.structure = scene_from_json(scene, source);
+  // The solution's optional keys ("message"...) belong to the solution part.
+  for (const std::string_view key : solution_keys()) {
+    const std::string k(key);
+    const auto& scene_only = scene_keys();
+    if (std::find(scene_only.begin(), scene_only.end(), key) != scene_only.end() || !scene.contains(k)) continue;
+    d.solution.extra[k] = scene.at(k);
+    scene.erase(k);
+  }
+  scene["format"] = "tensegrity-scene";
+  d.structure = scene_from_json(scene, source, keys);
   const int n = d.structure.num_nodes(), m = d.structure.num_elements();
 
   Solution& sol = d.solution;
@@ -113,7 +140,7 @@ Design design_from_json(const json& j, const std::string& source) {
   if (!j.contains("materials") || !j.at("materials").is_object())
     throw InputError(source, "materials", "missing or not an object of material definitions");
   for (auto it = j.at("materials").begin(); it != j.at("materials").end(); ++it) {
-    CableMaterial mat = material_from_json(*it, source + ": materials." + it.key());
+    CableMaterial mat = material_from_json(*it, source + ": materials." + it.key(), keys, "materials." + it.key());
     d.materials[it.key()] = std::move(mat);
   }
   d.cable_material.assign(m, "");
@@ -127,6 +154,7 @@ Design design_from_json(const json& j, const std::string& source) {
       throw InputError(source, item, "material '" + d.cable_material[e] + "' is not defined in \"materials\"");
   }
   if (j.contains("design")) d.info = j.at("design");
+  keys.report();
   return d;
 }
 

@@ -4,7 +4,7 @@
 //
 //   the scene keys ("name", "gravity", "nodes", "elements" with their extras)
 //     at the designed geometry; every cable element carries "material";
-//   the solution keys of CONTRACT.md ("scene", "solver", "status",
+//   the solution keys of docs/FORMATS.md ("scene", "solver", "status",
 //     "positions", "forces", "stats", "rest_lengths");
 //   "strains": per element, eps = l / L - 1 (0 for struts);
 //   "materials": {name: material object (model/material.hpp)} for every

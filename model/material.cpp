@@ -13,8 +13,10 @@
 #include <sstream>
 
 #include "model/errors.hpp"
+#include "model/format_keys.hpp"
 #include "model/json_io.hpp"
 #include "model/json_text.hpp"
+#include "model/known_keys.hpp"
 #include "model/scene_io.hpp"
 
 namespace tensegrity {
@@ -121,8 +123,24 @@ std::optional<std::string> monotonicity_problem(const CableMaterial& m) {
 
 // ---- files ---------------------------------------------------------------------
 
+const std::vector<std::string_view>& material_keys() {
+  static const std::vector<std::string_view> keys = {"format",         "version",      "name",        "description",
+                                                     "diameter",       "linear_density", "strain_range", "coefficients",
+                                                     "fit"};
+  return keys;
+}
+
 CableMaterial material_from_json(const json& j, const std::string& source) {
+  KeyChecker keys(source);
+  CableMaterial m = material_from_json(j, source, keys, "");
+  keys.report();
+  return m;
+}
+
+CableMaterial material_from_json(const json& j, const std::string& source, KeyChecker& keys,
+                                 const std::string& item) {
   json_expect_header(j, "tensegrity-material", source);
+  keys.check(j, material_keys(), item);
   auto need = [&](const char* key) -> const json& {
     if (!j.contains(key)) throw InputError(source, key, "missing");
     return j.at(key);
@@ -153,6 +171,9 @@ CableMaterial material_from_json(const json& j, const std::string& source) {
     m.fit = j.at("fit");
   }
   if (const auto why = monotonicity_problem(m)) throw InputError(source, "coefficients", *why);
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (std::find(material_keys().begin(), material_keys().end(), it.key()) == material_keys().end())
+      m.extra[it.key()] = *it;
   return m;
 }
 
@@ -169,6 +190,8 @@ json material_to_json(const CableMaterial& m) {
   j["strain_range"] = json::array({m.strain_min, m.strain_max});
   j["coefficients"] = json(std::vector<double>(m.coefficients.begin(), m.coefficients.end()));
   if (!m.fit.empty()) j["fit"] = m.fit;
+  for (auto it = m.extra.begin(); it != m.extra.end(); ++it)
+    if (!j.contains(it.key())) j[it.key()] = *it;
   return j;
 }
 
@@ -225,6 +248,17 @@ MeasuredPoints read_points_csv(const std::string& path) {
       if (sep == std::string::npos) continue;
       const std::string key = lower(trim(body.substr(0, sep)));
       const std::string value = trim(body.substr(sep + 1));
+      // A one-word key near a known one is a typo ("# diamter = 0.001" would
+      // otherwise be a comment); other '#' lines are comments.
+      static const std::vector<std::string_view> kPointKeys = {"name", "description", "diameter", "linear_density"};
+      const bool one_word = !key.empty() && std::all_of(key.begin(), key.end(), [](unsigned char c) {
+        return std::isalpha(c) || c == '_';
+      });
+      if (one_word) {
+        const std::string intended = misspelled_key(key, kPointKeys);
+        if (!intended.empty())
+          throw InputError(path, item, "unknown key '" + key + "' (did you mean '" + intended + "'?)");
+      }
       if (key == "name") out.name = value;
       else if (key == "description") out.description = value;
       else if (key == "diameter") out.diameter = parse_number(value, path, item + " (diameter)");

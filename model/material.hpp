@@ -12,7 +12,7 @@
 //
 // Material files (data/materials/*.json, format "tensegrity-material",
 // version 1) and measured points (*.points.csv: "strain,force" rows) are
-// described in data/materials/README.md.
+// described in docs/FORMATS.md.
 #include <array>
 #include <optional>
 #include <string>
@@ -31,6 +31,7 @@ struct CableMaterial {
   double strain_min = 0.0;        // measured range (dimensionless)
   double strain_max = 0.0;
   nlohmann::json fit = nlohmann::json::object();  // provenance and residuals, kept as is
+  nlohmann::json extra = nlohmann::json::object();  // unknown keys of its file, written back as is
 
   bool in_range(double eps) const { return eps >= strain_min && eps <= strain_max; }
   // F(eps); throws InputError(name, "strain X", reason) outside the measured range.
@@ -56,6 +57,8 @@ std::vector<double> real_polynomial_roots(const std::vector<double>& a, double l
 
 // Validates every field (finite coefficients, strain_min < strain_max,
 // strain_min > -1, positive diameter, non-negative density, monotone curve).
+// A misspelled key is an InputError; other unknown keys are kept in `extra`
+// and reported through the input-warning sink (model/known_keys.hpp).
 CableMaterial material_from_json(const nlohmann::json& j, const std::string& source);
 CableMaterial read_material_file(const std::string& path);
 nlohmann::json material_to_json(const CableMaterial& m);

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "model/errors.hpp"
+#include "model/format_keys.hpp"
 #include "model/json_io.hpp"
 #include "model/json_text.hpp"
 
@@ -317,8 +318,33 @@ std::string json_string(const json& v, const std::string& source, const std::str
   return v.get<std::string>();
 }
 
+const std::vector<std::string_view>& scene_keys() {
+  static const std::vector<std::string_view> keys = {"format", "version",  "name",     "description",
+                                                     "gravity", "nodes",   "elements", "character"};
+  return keys;
+}
+
+const std::vector<std::string_view>& scene_node_keys() {
+  static const std::vector<std::string_view> keys = {"x", "fixed", "mass", "name", "block", "block_node", "link"};
+  return keys;
+}
+
+const std::vector<std::string_view>& scene_element_keys() {
+  static const std::vector<std::string_view> keys = {"kind",  "nodes",         "mass", "name",     "block",
+                                                     "block_element", "link", "material", "target_strain"};
+  return keys;
+}
+
 Structure scene_from_json(const json& j, const std::string& source) {
+  KeyChecker keys(source);
+  Structure s = scene_from_json(j, source, keys);
+  keys.report();
+  return s;
+}
+
+Structure scene_from_json(const json& j, const std::string& source, KeyChecker& keys) {
   json_expect_header(j, "tensegrity-scene", source);
+  keys.check(j, scene_keys(), "");
   Structure s;
   for (auto it = j.begin(); it != j.end(); ++it) {
     const std::string& key = it.key();
@@ -337,6 +363,7 @@ Structure scene_from_json(const json& j, const std::string& source) {
     const std::string item = index_item("nodes", i);
     const json& node = nodes[i];
     if (!node.is_object()) throw InputError(source, item, "expected a node object, got " + describe(node));
+    keys.check(node, scene_node_keys(), item);
     const Eigen::Vector3d x = json_vector3(require_key(node, "x", source, join(item, "x")), source, join(item, "x"));
     bool is_fixed = false;
     double mass = 0.0;
@@ -366,6 +393,7 @@ Structure scene_from_json(const json& j, const std::string& source) {
     const json& element = elements[e];
     if (!element.is_object())
       throw InputError(source, item, "expected an element object, got " + describe(element));
+    keys.check(element, scene_element_keys(), item);
     const std::string kind_text = json_string(require_key(element, "kind", source, join(item, "kind")), source,
                                               join(item, "kind"));
     ElementKind kind;

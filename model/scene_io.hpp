@@ -1,5 +1,5 @@
 #pragma once
-// Scene files (CONTRACT.md, format "tensegrity-scene", version 1).
+// Scene files (docs/FORMATS.md, format "tensegrity-scene", version 1).
 #include <iosfwd>
 #include <nlohmann/json.hpp>
 #include <string>

@@ -1,5 +1,6 @@
 #include "model/solution.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -7,8 +8,10 @@
 #include <string>
 
 #include "model/errors.hpp"
+#include "model/format_keys.hpp"
 #include "model/json_io.hpp"
 #include "model/json_text.hpp"
+#include "model/known_keys.hpp"
 #include "model/scene_io.hpp"
 
 namespace tensegrity {
@@ -67,9 +70,26 @@ Eigen::VectorXd per_element_numbers(const json& j, const char* key, int m, const
 
 }  // namespace
 
+const std::vector<std::string_view>& solution_keys() {
+  static const std::vector<std::string_view> keys = {
+      "format", "version", "scene", "solver", "status", "positions", "forces", "stats", "rest_lengths",
+      // Written by solve (a backend's message and native code) and by relax.
+      "message", "native_code", "gravity", "max_displacement", "max_displacement_node", "relative_max_displacement",
+      "size", "slack_cables", "cables_outside_measured_range"};
+  return keys;
+}
+
+const std::vector<std::string_view>& solution_stats_keys() {
+  static const std::vector<std::string_view> keys = {"iterations", "seconds", "residual", "relative_residual",
+                                                     "geometry_change"};
+  return keys;
+}
+
 Solution read_solution_file(const std::string& path, const Structure& scene) {
   const json j = read_json_file(path);
   json_expect_header(j, "tensegrity-solution", path);
+  KeyChecker keys(path);
+  keys.check(j, solution_keys(), "");
   for (const char* key : {"status", "positions", "forces", "stats"})
     if (!j.contains(key)) throw InputError(path, key, std::string("missing required field \"") + key + "\"");
 
@@ -100,6 +120,7 @@ Solution read_solution_file(const std::string& path, const Structure& scene) {
 
   const json& stats = j.at("stats");
   if (!stats.is_object()) throw InputError(path, "stats", "expected an object, got " + std::string(stats.type_name()));
+  keys.check(stats, solution_stats_keys(), "stats");
   for (const char* key : {"iterations", "seconds", "residual", "relative_residual", "geometry_change"})
     if (!stats.contains(key))
       throw InputError(path, std::string("stats.") + key, std::string("missing required field \"") + key + "\"");
@@ -113,13 +134,12 @@ Solution read_solution_file(const std::string& path, const Structure& scene) {
   s.stats.relative_residual = json_finite_number(stats.at("relative_residual"), path, "stats.relative_residual");
   s.stats.geometry_change = json_finite_number(stats.at("geometry_change"), path, "stats.geometry_change");
 
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    static const char* const kKnown[] = {"format", "version", "scene", "solver", "status",
-                                         "positions", "forces", "stats", "rest_lengths"};
-    bool known = false;
-    for (const char* k : kKnown) known = known || it.key() == k;
-    if (!known) s.extra[it.key()] = *it;
-  }
+  // Keys of other commands (relax's "message"...) and unknown ones are carried through.
+  static const std::vector<std::string_view> kRead = {"format",    "version", "scene", "solver",      "status",
+                                                      "positions", "forces",  "stats", "rest_lengths"};
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (std::find(kRead.begin(), kRead.end(), it.key()) == kRead.end()) s.extra[it.key()] = *it;
+  keys.report();
   return s;
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-// A solution file (CONTRACT.md): positions per node (m), axial force per element
+// A solution file (docs/FORMATS.md): positions per node (m), axial force per element
 // (N, positive = tension), status and stats.
 #include <Eigen/Core>
 #include <iosfwd>
@@ -16,7 +16,7 @@ struct SolutionStats {
   int iterations = 0;
   double seconds = 0.0;
   double residual = 0.0;           // max net force on a free node (N)
-  double relative_residual = 0.0;  // residual / load scale (CONTRACT.md)
+  double relative_residual = 0.0;  // residual / load scale (docs/FORMATS.md)
   double geometry_change = 0.0;    // |x - x_scene| over all coordinates (m)
 };
 

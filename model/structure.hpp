@@ -2,7 +2,7 @@
 // The tensegrity structure: nodes (position in m, fixed flag, lumped mass in kg),
 // elements (two node indices, strut or cable, optional mass in kg lumped half to
 // each end) and a gravity vector (m/s^2; all zero means no gravity terms).
-// Sign convention (CONTRACT.md): an element force sigma > 0 is tension.
+// Sign convention (docs/FORMATS.md): an element force sigma > 0 is tension.
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -53,7 +53,7 @@ struct Structure {
 const char* to_string(ElementKind kind);
 
 // Throws InputError(source, item, reason) when the structure breaks a rule of
-// CONTRACT.md: indices, self-loops, zero length, duplicates, masses, finiteness,
+// docs/FORMATS.md: indices, self-loops, zero length, duplicates, masses, finiteness,
 // no elements, no free node.
 void validate(const Structure& s, const std::string& source);
 

@@ -1,6 +1,6 @@
 #pragma once
 // Independent re-verification of a solution against its scene, by the plain
-// formulas of CONTRACT.md (no solver code involved). Used by `tensegrity check`
+// formulas of docs/FORMATS.md (no solver code involved). Used by `tensegrity check`
 // and by every backend before it calls a result converged.
 #include <Eigen/Core>
 #include <string>

@@ -18,6 +18,7 @@ enum class NoiseShape {
   UniformBall,        // uniform in the unit ball (rejection sampling)
   CubeClippedToBall,  // uniform in the cube [-1, 1]^3, vectors longer than 1 scaled to length 1
   Cube,               // uniform in the cube [-1, 1]^3 (length up to sqrt 3)
+  Gaussian,           // standard normal components (unbounded)
 };
 
 enum class LengthMeasure {
@@ -42,6 +43,13 @@ double measure_length(const Structure& s, LengthMeasure measure);
 // separate statements, so that every compiler gives the same vector.
 template <class Rng>
 Eigen::Vector3d random_offset(NoiseShape shape, Rng& rng) {
+  if (shape == NoiseShape::Gaussian) {
+    std::normal_distribution<double> n(0.0, 1.0);
+    const double z = n(rng);
+    const double y = n(rng);
+    const double x = n(rng);
+    return Eigen::Vector3d(x, y, z);
+  }
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (;;) {
     const double z = u(rng);
@@ -55,6 +63,7 @@ Eigen::Vector3d random_offset(NoiseShape shape, Rng& rng) {
       case NoiseShape::CubeClippedToBall:
         return d.norm() > 1.0 ? Eigen::Vector3d(d.normalized()) : d;
       case NoiseShape::Cube:
+      case NoiseShape::Gaussian:
         return d;
     }
   }

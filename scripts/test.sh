@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Set up, build (Release) and run the whole test suite; then the whole suite
+# Set up, build (Release) and run the whole test suite and the Python tests
+# (pytest, python/tests, for /usr/bin/python3); then the whole suite
 # again built with AddressSanitizer + UndefinedBehaviorSanitizer (clang, with the
 # libFuzzer targets in the same build); then a bounded libFuzzer run of the scene
 # and character parsers (docs/ROBUSTNESS.md).
@@ -21,7 +22,9 @@ step "setup done; Release build"
 bash scripts/build.sh build
 step "Release build done; test suite"
 (cd build && ctest --output-on-failure -j"$jobs" --timeout 900)
-step "Release test suite done"
+step "Release test suite done; Python tests (pytest, /usr/bin/python3, module from build/python)"
+PYTHONPATH=build/python PYTHONDONTWRITEBYTECODE=1 /usr/bin/python3 -m pytest python/tests -q
+step "Python tests done"
 
 if [ "${TENSEGRITY_SKIP_SANITIZERS:-0}" != 1 ]; then
   # Every test executable and every ctest entry, built with ASan + UBSan.

@@ -19,6 +19,7 @@
 #include "model/character.hpp"
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
+#include "scenes/perturb.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
 
@@ -27,28 +28,15 @@ namespace {
 
 constexpr double kDegree = M_PI / 180.0;
 
-double mean_strut_length(const Structure& s) {
-  double sum = 0.0;
-  int count = 0;
-  for (const Element& e : s.elements)
-    if (e.kind == ElementKind::Strut) {
-      sum += (s.positions.col(e.b) - s.positions.col(e.a)).norm();
-      ++count;
-    }
-  return sum / count;
-}
 
 // Moves every free node by a seeded random vector with components uniform in
 // [-noise, noise] times the mean strut length.
 Structure perturbed(Structure s, double noise, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  const double amplitude = noise * mean_strut_length(s);
-  for (int i = 0; i < s.num_nodes(); ++i) {
-    if (s.fixed[i]) continue;
-    for (int k = 0; k < 3; ++k) s.positions(k, i) += amplitude * uniform(rng);
-  }
-  return s;
+  scenes::NodeNoise n;
+  n.fraction = noise;
+  n.length = scenes::LengthMeasure::MeanStrut;
+  n.shape = scenes::NoiseShape::Cube;
+  return scenes::with_node_noise(std::move(s), n, seed);
 }
 
 Structure prism(int n, double twist_degrees, bool gravity) {
@@ -352,6 +340,18 @@ TEST(AlternatingSolver, RegularPrismForcesMatchAnalyticRatios) {
   const double vertical = density(n);
   EXPECT_NEAR(density(0) / vertical, -1.0, 1e-6);
   EXPECT_NEAR(density(2 * n) / vertical, 1.0 / (2.0 * std::sin(M_PI / n)), 1e-6);
+}
+
+// A scheme that stops making progress without a proof says so: `stalled`,
+// never `infeasible`. A step threshold larger than any move stops Algorithm 1
+// after its first position phase on a twisted prism, which is a tensegrity.
+TEST(AlternatingSolver, AStallIsReportedAsStalledNotInfeasible) {
+  SolveOptions options;
+  options.backend_options["epsilon_cvg"] = "1e3";
+  const SolveResult r = AlternatingSolver().Solve(prism(4, 10.0, false), options);
+  EXPECT_EQ(r.status, Status::Stalled) << r.message;
+  EXPECT_NE(r.message.find("stalled"), std::string::npos) << r.message;
+  EXPECT_GT(r.stats.relative_residual, 1e-8);
 }
 
 TEST(AlternatingSolver, GravityWithoutSupportsIsInfeasible) {

@@ -1,8 +1,11 @@
 // The command line on every file of tests/bad_inputs (and on a missing file and
 // a directory): exit status 2, exactly one line on standard error naming the
-// file, nothing on standard output, and no output file (CONTRACT.md).
+// file, nothing on standard output, and no output file (docs/FORMATS.md).
+// A misspelled key names the typo and the intended key; a distant unknown key
+// is kept and warned about.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -101,6 +104,51 @@ TEST_F(CliBadInput, OutputIntoAMissingDirectoryIsRejected) {
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_NE(r.err.find(out), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
+}
+
+TEST_F(CliBadInput, TyposNameTheTypoAndTheIntendedKey) {
+  const std::string out = (dir_.work() / "out.solution.json").string();
+  const std::vector<std::array<std::string, 3>> typos = {
+      {"typo_fixd", "fixd", "fixed"}, {"typo_gravty", "gravty", "gravity"}, {"typo_mas", "mas", "mass"},
+      {"typo_knd", "knd", "kind"}};
+  for (const auto& [name, typo, intended] : typos) {
+    const std::string file = (kBadInputs / (name + ".scene.json")).string();
+    for (const char* command : {"forces", "solve"}) {
+      SCOPED_TRACE(std::string(command) + " " + name);
+      const ProgramRun r = run({command, file, "--out", out});
+      EXPECT_EQ(r.exit_status, 2);
+      EXPECT_NE(r.err.find("unknown key '" + typo + "' (did you mean '" + intended + "'?)"), std::string::npos)
+          << r.err;
+      EXPECT_TRUE(work_files().empty());
+    }
+  }
+}
+
+TEST_F(CliBadInput, BuildRejectsAMisspelledCharacterKey) {
+  const std::string file = (kBadInputs / "typo_scal.character.json").string();
+  const std::string out = (dir_.work() / "duck.scene.json").string();
+  expect_rejected({"build", file, "--out", out}, file);
+  const ProgramRun r = run({"build", file, "--out", out});
+  EXPECT_EQ(r.err, "tensegrity: " + file + ": blocks[4]: unknown key 'scal' (did you mean 'scale'?)\n");
+}
+
+TEST_F(CliBadInput, DistantUnknownKeysAreKeptAndWarnedAboutOnce) {
+  // The prism converges as it stands; a comment and a node colour are added.
+  std::string text = tensegrity::testing::read_text(fs::path(TENSEGRITY_SOURCE_DIR) / "data/reference/prism-3.scene.json");
+  text.replace(text.find("\"name\""), 0, "\"comment\": \"by hand\", ");
+  text.replace(text.find("{\"x\"", text.find("{\"x\"") + 1) + 1, 0, "\"color\": \"red\", ");
+  const std::string scene = (dir_.logs() / "colored.scene.json").string();
+  std::ofstream(scene) << text;
+  const std::string solution = (dir_.work() / "out.solution.json").string();
+  const std::string rewritten = (dir_.work() / "out.scene.json").string();
+  const ProgramRun r = run({"solve", scene, "--out", solution, "--out-scene", rewritten});
+  EXPECT_EQ(r.exit_status, 0) << r.err;
+  const std::string warning = "tensegrity: " + scene + ": warning: unknown keys kept: comment, nodes[1].color\n";
+  EXPECT_EQ(r.err.rfind(warning, 0), 0u) << r.err;
+  EXPECT_EQ(r.err.find("warning", warning.size()), std::string::npos) << "warned twice:\n" << r.err;
+  const std::string written = tensegrity::testing::read_text(rewritten);
+  EXPECT_NE(written.find("\"color\": \"red\""), std::string::npos) << written;
+  EXPECT_NE(written.find("\"comment\": \"by hand\""), std::string::npos) << written;
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 // comparison of a character.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -76,14 +77,14 @@ TEST(CliDesign, CharacterGivesTheDesignAndTheSheetInAssemblyOrder) {
   const auto rows = read_csv(sheet);
   ASSERT_EQ(rows.size(), 1u + 291u + 2u);  // header, every element, strut total, one cable total
   EXPECT_EQ(rows[0][0], "group_kind");
-  ASSERT_EQ(rows[0].size(), 12u);
+  ASSERT_EQ(rows[0].size(), 13u);
   int struts = 0, cables = 0;
   double cable_rest = 0.0;
   bool seen_link = false;
   std::map<int, int> element_rows;
   for (std::size_t k = 1; k + 2 < rows.size(); ++k) {
     const auto& row = rows[k];
-    ASSERT_EQ(row.size(), 12u) << k;
+    ASSERT_EQ(row.size(), 13u) << k;
     // Blocks first, then links.
     if (row[0] == "link") seen_link = true;
     else EXPECT_EQ(row[0], "block") << k;
@@ -92,10 +93,12 @@ TEST(CliDesign, CharacterGivesTheDesignAndTheSheetInAssemblyOrder) {
     }
     const int e = std::stoi(row[2]);
     ++element_rows[e];
-    const double rest = std::stod(row[8]);
-    EXPECT_NEAR(rest, (*d.solution.rest_lengths)[e], 1e-15 * rest);
-    EXPECT_NEAR(std::stod(row[9]), d.solution.forces[e], 1e-12 * std::abs(d.solution.forces[e]) + 1e-300);
-    if (row[3] == "strut") ++struts;
+    // Millimetres to 0.1 mm, forces to 3 significant digits, element names.
+    const double rest = std::stod(row[9]) / 1000.0;
+    EXPECT_NEAR(rest, (*d.solution.rest_lengths)[e], 0.51e-4) << k;
+    EXPECT_NEAR(std::stod(row[10]), d.solution.forces[e], 5e-3 * std::abs(d.solution.forces[e])) << k;
+    EXPECT_EQ(row[3].rfind(row[1] + ".", 0), 0u) << row[3];  // "block.strut-0", "link.cable-2"
+    if (row[4] == "strut") ++struts;
     else ++cables, cable_rest += rest;
   }
   EXPECT_TRUE(seen_link);
@@ -105,12 +108,16 @@ TEST(CliDesign, CharacterGivesTheDesignAndTheSheetInAssemblyOrder) {
   const auto& strut_total = rows[rows.size() - 2];
   const auto& cable_total = rows.back();
   EXPECT_EQ(strut_total[0], "total");
-  EXPECT_EQ(strut_total[3], "strut");
-  EXPECT_EQ(strut_total[11], "51");
-  EXPECT_EQ(cable_total[3], "cable");
-  EXPECT_EQ(cable_total[6], "elastic-cord-2mm");
-  EXPECT_EQ(cable_total[11], "240");
-  EXPECT_NEAR(std::stod(cable_total[8]), cable_rest, 1e-12 * cable_rest);
+  EXPECT_EQ(strut_total[4], "strut");
+  EXPECT_EQ(strut_total[12], "51");
+  EXPECT_EQ(cable_total[4], "cable");
+  EXPECT_EQ(cable_total[7], "elastic-cord-2mm");
+  EXPECT_EQ(cable_total[12], "240");
+  EXPECT_NEAR(std::stod(cable_total[9]) / 1000.0, cable_rest, 0.5e-4 * 240);
+  // The printable cut list beside the sheet names every element.
+  const std::string cut_list = testing::read_text(dir.file("puppy.cutlist.svg"));
+  EXPECT_NE(cut_list.find("<text"), std::string::npos);
+  EXPECT_EQ(std::count(cut_list.begin(), cut_list.end(), '\n') > 291, true);
 
   // relax and simulate need nothing but the design file.
   const ProgramRun relax = dir.run({"relax", design, "--out", dir.file("relaxed.solution.json")});

@@ -1,7 +1,7 @@
 // Determinism (issue 10, item 4): the same input and options give bit-identical
 // solution files run to run, with one or two batch jobs, and with one or two
 // OpenBLAS threads. Compared byte for byte except the value of `stats.seconds`,
-// the one wall-clock field of a solution file (CONTRACT.md); every other number
+// the one wall-clock field of a solution file (docs/FORMATS.md); every other number
 // is written in its shortest round-trip form, so equal text means equal bits.
 #include <gtest/gtest.h>
 #include <stdlib.h>

@@ -2,7 +2,7 @@
 // role it reads a file in: each bad scene of tests/bad_inputs, files beyond the
 // size limit, an endless device, deeply nested JSON (at the top and inside an
 // otherwise valid scene), a huge string, a FIFO with no writer, a directory, a
-// path too long, a missing folder. Expected for each (CONTRACT.md): exit status
+// path too long, a missing folder. Expected for each (docs/FORMATS.md): exit status
 // 2 within the time limit (no crash, no hang), one line on stderr that names
 // the file, nothing on stdout, no output file.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// End-to-end: the `tensegrity` program as outside scripts use it (CONTRACT.md).
+// End-to-end: the `tensegrity` program as outside scripts use it (docs/FORMATS.md).
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -98,6 +98,33 @@ TEST_F(CliSolve, BadToleranceAndUnknownSolverAreUsageErrors) {
            {"--option", "nosuchkey=1"}}) {
     EXPECT_EQ(run_cli({"solve", scene, "--out", out, option, value}).exit_status, 2) << option << " " << value;
     EXPECT_FALSE(fs::exists(out)) << option << " " << value;
+  }
+}
+
+// Every backend rejects an out-of-range option value the same way: exit 2, no
+// output, one line naming the option, its value and the valid range.
+TEST_F(CliSolve, OutOfRangeBackendOptionsNameTheOptionAndTheValidRange) {
+  const std::string scene = write_scene(scenes::prism(3, 10.0));
+  const std::string out = (dir / "never.json").string();
+  const struct {
+    const char* solver;
+    const char* option;
+    const char* range;
+  } cases[] = {
+      {"alternating", "mu=0", "(valid: (0, inf))"},
+      {"alternating-gn", "mu=0", "(valid: (0, inf))"},
+      {"alternating", "crawl_ratio=1.5", "(valid: (0, 1])"},
+      {"alternating-gn", "restarts=9", "(valid: [0, 5])"},
+      {"nlopt", "ftol_rel=0", "(valid: (0, inf))"},
+      {"ipopt", "tol=0", "(valid: a number in (0, inf))"},
+  };
+  for (const auto& c : cases) {
+    const testing::ProgramRun r = run_cli({"solve", scene, "--solver", c.solver, "--option", c.option, "--out", out});
+    EXPECT_EQ(r.exit_status, 2) << c.solver << " " << c.option;
+    EXPECT_FALSE(fs::exists(out)) << c.solver << " " << c.option;
+    const std::string expected = std::string("tensegrity: command line: --option ") + c.option + ": out of range " +
+                                 c.range + " (solver " + c.solver + ")\n";
+    EXPECT_EQ(r.err, expected) << c.solver << " " << c.option;
   }
 }
 

@@ -11,6 +11,7 @@
 
 #include "design/rest_lengths.hpp"
 #include "model/reference_scenes.hpp"
+#include "scenes/perturb.hpp"
 #include "simulation_fixtures.hpp"
 
 namespace tensegrity {
@@ -85,10 +86,13 @@ Perturbed perturbed_prism() {
   Perturbed p{make_elastic_model(d), d.structure.positions, {}};
   // One cable made slack: its rest length longer than it is.
   p.model.rest_lengths[3] *= 1.5;  // a vertical cable
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int i = 0; i < p.x.cols(); ++i)
-    if (!p.model.structure.fixed[i]) p.x.col(i) += 0.004 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+  scenes::NodeNoise noise;  // up to 4 mm per coordinate on the free nodes
+  noise.fraction = 0.004;
+  noise.length = scenes::LengthMeasure::OneMetre;
+  noise.shape = scenes::NoiseShape::Cube;
+  Structure moved = p.model.structure;
+  moved.positions = p.x;
+  p.x = scenes::with_node_noise(std::move(moved), noise, 7).positions;
   p.drags.push_back({4, Eigen::Vector3d(0.05, 0.02, 0.3), 25.0});
   return p;
 }

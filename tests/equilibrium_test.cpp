@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "model/reference_scenes.hpp"
+#include "scenes/perturb.hpp"
 
 namespace tensegrity {
 namespace {
@@ -29,11 +30,13 @@ void add_node_masses(Structure& s, std::mt19937& rng) {
   for (int i = 0; i < s.num_nodes(); ++i) s.node_mass[i] = mass(rng);
 }
 
+// Gaussian noise of standard deviation `amplitude` (m) on every free node.
 void perturb_free_nodes(Structure& s, double amplitude, std::mt19937& rng) {
-  std::normal_distribution<double> noise(0.0, amplitude);
-  for (int i = 0; i < s.num_nodes(); ++i)
-    if (!s.fixed[i])
-      for (int k = 0; k < 3; ++k) s.positions(k, i) += noise(rng);
+  scenes::NodeNoise noise;
+  noise.fraction = amplitude;
+  noise.length = scenes::LengthMeasure::OneMetre;
+  noise.shape = scenes::NoiseShape::Gaussian;
+  scenes::add_node_noise(s, noise, rng);
 }
 
 std::vector<Scene> derivative_scenes() {

@@ -124,7 +124,7 @@ TEST(InteriorGaussNewton, TowerConvergesCloserThanItsPerturbation) {
     SCOPED_TRACE(gravity ? "gravity tower" : "tower");
     const Structure equilibrium = scenes::tower_equilibrium(data, gravity);
     const Structure scene = scenes::perturbed_tower(data, gravity);
-    const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, InteriorGaussNewtonOptions{});
+    const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), InteriorGaussNewtonOptions{});
     ASSERT_EQ(r.status, Status::Converged) << r.message;
     const Verification v = verify(scene, r.positions, r.forces, 1e-8);
     EXPECT_TRUE(v.ok);
@@ -149,7 +149,7 @@ TEST(InteriorGaussNewton, SceneInEquilibriumKeepsItsGeometry) {
   PrismParameters p;
   p.n = 5;
   const Structure prism = make_regular_prism(p);
-  const SolveResult r = solve_interior_gauss_newton(prism, SolveOptions{}, InteriorGaussNewtonOptions{});
+  const SolveResult r = solve_interior_gauss_newton(prism, SolveOptions{}, Eigen::VectorXd(), InteriorGaussNewtonOptions{});
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_EQ(r.stats.geometry_change, 0.0);
   EXPECT_EQ(r.stats.iterations, 0);
@@ -162,7 +162,7 @@ TEST(InteriorGaussNewton, GravityWithoutSupportsIsInfeasible) {
   p.gravity = true;
   p.strut_mass = 0.1;
   const Structure prism = make_regular_prism(p);
-  const SolveResult r = solve_interior_gauss_newton(prism, SolveOptions{}, InteriorGaussNewtonOptions{});
+  const SolveResult r = solve_interior_gauss_newton(prism, SolveOptions{}, Eigen::VectorXd(), InteriorGaussNewtonOptions{});
   EXPECT_EQ(r.status, Status::Infeasible);
   EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
 }
@@ -171,7 +171,7 @@ TEST(InteriorGaussNewton, BudgetIsAStatusNotAnAnswer) {
   const Structure scene = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
   InteriorGaussNewtonOptions o;
   o.max_iterations = 3;
-  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, o);
+  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), o);
   EXPECT_EQ(r.status, Status::MaxIterations);
   EXPECT_EQ(r.stats.iterations, 3);
   EXPECT_GT(r.stats.relative_residual, 1e-8);

@@ -8,6 +8,7 @@
 
 #include "model/errors.hpp"
 #include "model/verify.hpp"
+#include "model/reference_scenes.hpp"
 #include "scenes/suites.hpp"
 
 namespace tensegrity {

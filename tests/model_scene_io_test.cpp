@@ -115,6 +115,10 @@ const std::map<std::string, Expected>& expected_errors() {
       {"duplicate", {"elements[3].nodes", "nodes 1 and 2 are already joined by elements[1]"}},
       {"duplicate_reversed", {"elements[3].nodes", "nodes 2 and 1 are already joined by elements[1]"}},
       {"no_free_node", {"nodes", "no free node"}},
+      {"typo_fixd", {"nodes[2]", "unknown key 'fixd' (did you mean 'fixed'?)"}},
+      {"typo_gravty", {"", "unknown key 'gravty' (did you mean 'gravity'?)"}},
+      {"typo_mas", {"nodes[1]", "unknown key 'mas' (did you mean 'mass'?)"}},
+      {"typo_knd", {"elements[1]", "unknown key 'knd' (did you mean 'kind'?)"}},
   };
   return table;
 }

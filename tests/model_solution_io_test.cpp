@@ -1,5 +1,5 @@
 // Solution files: every double survives a write/read bit for bit, the keys of
-// CONTRACT.md are always there, and a file that does not fit its scene is an
+// docs/FORMATS.md are always there, and a file that does not fit its scene is an
 // InputError naming the item.
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -99,7 +99,7 @@ Solution test_solution(const Structure& scene) {
   s.forces[1] = 5e-324;
   s.stats = {17, 0.000123456789, 1.0 / 3.0, 2.5e-13, 0.1};
   s.rest_lengths = Eigen::VectorXd::LinSpaced(scene.num_elements(), 0.1, 1.7);
-  s.extra["stages"] = json::array({"forces", "form"});
+  s.extra["pipeline"] = json::array({"forces", "form"});  // an unknown key, kept
   return s;
 }
 

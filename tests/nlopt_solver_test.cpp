@@ -10,6 +10,7 @@
 
 #include "model/errors.hpp"
 #include "model/verify.hpp"
+#include "model/reference_scenes.hpp"
 #include "scenes/suites.hpp"
 #include "solvers/solver.hpp"
 

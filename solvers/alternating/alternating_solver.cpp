@@ -419,7 +419,7 @@ SolveResult PartSolve::run() {
       stalled_ = true;
     if (stalled_) {
       restartable_ = true;
-      return finish(Status::Stalled, "stalled at a local minimum of Eq. 4 with relative residual " +
+      return finish(Status::Stalled, "stalled: no progress (a local minimum of Eq. 4, or a crawl below epsilon_cvg) at relative residual " +
                                             std::to_string(p.relative_residual) + crawl_note());
     }
     if (iteration >= iteration_budget_) {

@@ -1,0 +1,146 @@
+"""The commands of the `tensegrity` program as functions (solve, forces, check,
+render): same validation, same messages, same files."""
+import os
+
+from . import _core
+
+DEFAULT_TIME_LIMIT = 120.0  # s, the command line's --time-limit default
+
+
+def _as_scene(scene):
+    """A Scene, or a path to a scene file (read with load_scene)."""
+    if isinstance(scene, _core.Scene):
+        return scene
+    if isinstance(scene, (str, os.PathLike)):
+        return _core.load_scene(os.fspath(scene))
+    raise TypeError(f"expected a tensegrity.Scene or a path, got {type(scene).__name__}")
+
+
+def _option_text(value):
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def solve(scene, solver=None, tol=1e-8, time_limit=None, options=None, *,
+          max_iterations=0, skip_if_in_equilibrium=True, verbose=False):
+    """Form-finds a scene with one backend (``tensegrity solve``).
+
+    Parameters
+    ----------
+    scene : Scene or path
+    solver : str, optional
+        A name from :func:`solvers`; default :func:`default_solver`.
+    tol : float
+        Relative residual for ``converged`` (finite, > 0).
+    time_limit : float, optional
+        Wall-clock budget in seconds (default 120, as on the command line).
+    options : dict, optional
+        Backend options, the command line's ``--option key=value`` pairs.
+    max_iterations : int
+        Backend iteration budget; 0 is the backend's own.
+    skip_if_in_equilibrium : bool
+        False is the command line's ``--no-skip``.
+
+    Returns
+    -------
+    Result
+        ``status``, ``positions`` (n, 3), ``forces`` (m,), ``stats``, ``trace``;
+        ``save(path)`` writes the solution file the command line writes.
+
+    Raises
+    ------
+    ValueError
+        Bad scene file, unknown solver or option, out-of-range numbers: the
+        command line's message.
+    """
+    scene = _as_scene(scene)
+    backend_options = {}
+    for key, value in (options or {}).items():
+        key = str(key)
+        if not key:
+            raise ValueError(f"tensegrity: command line: --option ={_option_text(value)}: expected key=value")
+        backend_options[key] = _option_text(value)
+    limit = DEFAULT_TIME_LIMIT if time_limit is None else float(time_limit)
+    return _core._solve(scene, solver or "", float(tol), limit, int(max_iterations),
+                        bool(skip_if_in_equilibrium), bool(verbose), backend_options)
+
+
+def forces(scene, tol=1e-8):
+    """The stress QP (Eq. 4 of the paper) at the scene's own geometry
+    (``tensegrity forces``): a Result by the solver "stress-qp" that is
+    ``converged`` when the scene already is a tensegrity, else ``infeasible``."""
+    return _core._forces(_as_scene(scene), float(tol))
+
+
+def check(scene, result_or_path, tol=1e-8):
+    """Independent re-check of a solution against its scene (``tensegrity check``).
+
+    ``result_or_path`` is a Result, a solution file's path, or a pair
+    ``(positions (n, 3), forces (m,))``. Returns a Verification (true when it
+    verifies)."""
+    scene = _as_scene(scene)
+    tol = float(tol)
+    if isinstance(result_or_path, _core.Result):
+        return _core._check_arrays(scene, result_or_path.positions, result_or_path.forces, tol)
+    if isinstance(result_or_path, (str, os.PathLike)):
+        return _core._check_solution_file(scene, os.fspath(result_or_path), tol)
+    if isinstance(result_or_path, tuple) and len(result_or_path) == 2:
+        return _core._check_arrays(scene, result_or_path[0], result_or_path[1], tol)
+    raise TypeError("expected a Result, a solution file's path or (positions, forces)")
+
+
+def read_solution(scene, path):
+    """Reads a solution file, checked against its scene: a dict with status,
+    solver, positions (n, 3), forces (m,) and stats."""
+    return _core._read_solution(_as_scene(scene), os.fspath(path))
+
+
+def render(scene, path, result=None, view="iso", width=1200, height=900, title=""):
+    """Draws a scene, or a solution of it coloured by its forces, to PNG or SVG
+    by the extension of ``path`` (``tensegrity render``). ``result`` is a
+    Result or a solution file's path."""
+    scene = _as_scene(scene)
+    positions = forces_ = None
+    if isinstance(result, _core.Result):
+        positions, forces_ = result.positions, result.forces
+    elif result is not None:
+        solution = read_solution(scene, result)
+        positions, forces_ = solution["positions"], solution["forces"]
+    if not (isinstance(width, int) and isinstance(height, int)):
+        raise TypeError("width and height are integers (pixels)")
+    _core._render(scene, positions, forces_, os.fspath(path), str(view), width, height, str(title))
+    return os.fspath(path)
+
+
+def simulate(design, dt=1.0 / 60.0, steps=60, gravity=None, damping=0.0, stiffness_damping=0.0,
+             drags=None, drag_stiffness=None, every=1, tol=1e-9):
+    """Implicit-Euler simulation of a built design (``tensegrity simulate``).
+
+    Parameters
+    ----------
+    design : path
+        A design file (``tensegrity design --out``).
+    dt : float
+        Time step (s). ``steps``: number of steps; ``every``: keep every k-th frame (and the last).
+    gravity : 3 floats, optional
+        Default: the design's.
+    damping, stiffness_damping : float
+        Mass-proportional (1/s) and stiffness-proportional (s) damping.
+    drags : dict node -> (x, y, z), optional
+        Nodes pulled towards fixed targets by springs of ``drag_stiffness`` N/m
+        (default: the command's, force scale / (0.05 length scale)).
+
+    Returns
+    -------
+    dict of numpy arrays, one entry per kept frame (frame 0 is the start):
+    ``step``, ``time`` (s), ``positions`` (frames, n, 3), ``forces`` (frames, m),
+    ``kinetic_energy``, ``potential_energy`` (J), ``newton_iterations``, ``converged``.
+    """
+    targets = {int(node): tuple(float(c) for c in target) for node, target in (drags or {}).items()}
+    if any(len(t) != 3 for t in targets.values()):
+        raise ValueError("tensegrity: command line: --drag: expected 3 numbers per target")
+    return _core._simulate(os.fspath(design), float(dt), int(steps), gravity, float(damping),
+                           float(stiffness_damping), targets, drag_stiffness, int(every), float(tol))

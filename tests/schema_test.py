@@ -1,0 +1,170 @@
+#!/usr/bin/python3
+"""Validates file formats against their JSON Schemas in docs/schemas/.
+
+Every shipped JSON file (data/**, the reports in docs/) and every JSON file the
+`tensegrity` program writes in a few typical runs must match the schema of its
+"format". A broken copy of a scene must not match (the validator is live).
+
+    /usr/bin/python3 tests/schema_test.py --source . --binary build/tensegrity
+    /usr/bin/python3 tests/schema_test.py --source . --validate FILE...   (no program runs)
+
+Exit status 0 when everything matches, 1 otherwise (each mismatch is printed).
+"""
+import argparse
+import copy
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+import jsonschema
+
+SCHEMA_OF_FORMAT = {
+    "tensegrity-scene": "scene",
+    "tensegrity-solution": "solution",
+    "tensegrity-character": "character",
+    "tensegrity-block": "block",
+    "tensegrity-material": "material",
+    "tensegrity-design": "design",
+    "tensegrity-stress-report": "stress-report",
+}
+
+
+class Schemas:
+    def __init__(self, folder):
+        self.by_name = {}
+        store = {}
+        for path in sorted(folder.glob("*.schema.json")):
+            schema = json.loads(path.read_text())
+            jsonschema.Draft202012Validator.check_schema(schema)
+            name = path.name[: -len(".schema.json")]
+            if schema.get("$id") != path.name:
+                raise SystemExit(f"{path}: $id must be {path.name!r}")
+            self.by_name[name] = schema
+            store[path.name] = schema
+        missing = set(SCHEMA_OF_FORMAT.values()) - set(self.by_name)
+        if missing:
+            raise SystemExit(f"{folder}: no schema for {sorted(missing)}")
+        self.validators = {}
+        for name, schema in self.by_name.items():
+            # Cross-file references ("scene.schema.json#/$defs/node") resolve from the folder, never the network.
+            resolver = jsonschema.RefResolver(base_uri=schema["$id"], referrer=schema, store=store)
+            self.validators[name] = jsonschema.Draft202012Validator(schema, resolver=resolver)
+
+    def errors(self, document):
+        """Messages of every mismatch; a document of no known format is one."""
+        if not isinstance(document, dict) or document.get("format") not in SCHEMA_OF_FORMAT:
+            return ["no known \"format\" (expected one of " + ", ".join(sorted(SCHEMA_OF_FORMAT)) + ")"]
+        validator = self.validators[SCHEMA_OF_FORMAT[document["format"]]]
+        return [
+            "/".join(str(p) for p in error.absolute_path) + ": " + error.message
+            for error in sorted(validator.iter_errors(document), key=lambda e: list(map(str, e.absolute_path)))
+        ]
+
+
+def shipped_files(source):
+    files = sorted(p for p in (source / "data").rglob("*.json"))
+    files += sorted((source / "docs").glob("*-report.json"))
+    return files
+
+
+def run_program(binary, args, work):
+    """Runs the program; returns the JSON files it wrote into `work`."""
+    before = set(work.rglob("*.json"))
+    done = subprocess.run([str(binary)] + [str(a) for a in args], capture_output=True, text=True, timeout=600)
+    if done.returncode not in (0, 1):
+        raise SystemExit(f"tensegrity {' '.join(map(str, args))}: exit {done.returncode}\n{done.stderr}")
+    return sorted(set(work.rglob("*.json")) - before)
+
+
+def program_outputs(source, binary, work):
+    data = source / "data"
+    prism = data / "reference" / "prism-3.scene.json"
+    prism_gravity = data / "reference" / "prism-3-gravity.scene.json"
+    runs = [
+        ["solve", prism, "--out", work / "prism-3.solution.json", "--out-scene", work / "prism-3.solved.scene.json"],
+        ["solve", prism_gravity, "--solver", "ipopt", "--out", work / "prism-3-gravity.solution.json"],
+        ["forces", prism, "--out", work / "prism-3.forces.solution.json"],
+        ["build", data / "characters" / "duck.character.json", "--out", work / "duck.scene.json"],
+        ["build", "--write-blocks", work / "blocks"],
+        ["generate", "reference", "--out-dir", work / "reference"],
+        ["generate", "tower", "--layers", "2", "--struts-per-layer", "3", "--cables", "20", "--gravity",
+         "--out", work / "tower.scene.json"],
+        ["fit-material", data / "materials" / "elastic-cord-1mm.points.csv", "--out", work / "cord.json"],
+        ["design", prism_gravity, "--material", "elastic-cord-1mm", "--material-dir", data / "materials",
+         "--out", work / "prism-3.design.json"],
+        ["relax", work / "prism-3.design.json", "--out", work / "prism-3.relaxed.solution.json"],
+        ["batch", prism, prism_gravity, "--out-dir", work / "batch"],
+        ["stress-test", "--scenes", "prism-3", "--solvers", "alternating", "--families", "noise", "--trials", "1",
+         "--no-times", "--quiet", "--data", data, "--out", work / "stress-report.json"],
+    ]
+    written = []
+    for args in runs:
+        files = run_program(binary, args, work)
+        if not files:
+            raise SystemExit(f"tensegrity {' '.join(map(str, args))}: wrote no JSON file")
+        written += files
+    return written
+
+
+def check_files(schemas, files):
+    failures = 0
+    for path in files:
+        try:
+            document = json.loads(pathlib.Path(path).read_text())
+        except (OSError, ValueError) as e:
+            print(f"{path}: cannot read: {e}")
+            failures += 1
+            continue
+        for message in schemas.errors(document):
+            print(f"{path}: {message}")
+            failures += 1
+    return failures
+
+
+def check_live(schemas, source):
+    """A document that breaks its schema must be reported (else the test proves nothing)."""
+    scene = json.loads((source / "data" / "reference" / "prism-3.scene.json").read_text())
+    broken = []
+    for mutate in (
+        lambda s: s["nodes"][0].__setitem__("fixed", "yes"),
+        lambda s: s["elements"][0].__setitem__("kind", "rod"),
+        lambda s: s["nodes"][1].__setitem__("x", [0.0, 1.0]),
+        lambda s: s.pop("elements"),
+        lambda s: s.__setitem__("version", 2),
+    ):
+        copy_of_scene = copy.deepcopy(scene)
+        mutate(copy_of_scene)
+        broken.append(copy_of_scene)
+    missed = [i for i, doc in enumerate(broken) if not schemas.errors(doc)]
+    if schemas.errors(scene) or missed:
+        print(f"the scene schema does not tell good from bad (accepted broken cases {missed})")
+        return 1
+    return 0
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--source", type=pathlib.Path, required=True, help="the repository")
+    parser.add_argument("--binary", type=pathlib.Path, help="build/tensegrity: also validate what it writes")
+    parser.add_argument("--validate", nargs="*", type=pathlib.Path, help="only these files")
+    args = parser.parse_args()
+    schemas = Schemas(args.source / "docs" / "schemas")
+    if args.validate is not None:
+        return 1 if check_files(schemas, args.validate) else 0
+
+    failures = check_live(schemas, args.source)
+    shipped = shipped_files(args.source)
+    failures += check_files(schemas, shipped)
+    written = []
+    if args.binary:
+        with tempfile.TemporaryDirectory(prefix="tensegrity-schema-") as work:
+            written = program_outputs(args.source, args.binary, pathlib.Path(work))
+            failures += check_files(schemas, written)
+    print(f"schema_test: {len(shipped)} shipped files, {len(written)} program outputs, {failures} mismatches")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
