@@ -27,7 +27,6 @@ const fs::path kSource = fs::path(TENSEGRITY_SOURCE_DIR);
 
 using tensegrity::testing::ProgramRun;
 using tensegrity::testing::read_text;
-using tensegrity::testing::shell_quoted;
 
 // A command line with {in} for the hostile file and {out} for an output path.
 struct Role {
@@ -44,9 +43,10 @@ class CliHostileInput : public ::testing::Test {
     good_scene_ = good_scene.string();
     // A solution of the good scene, for the commands that need both.
     good_solution_ = (base_ / "inputs" / "good.solution.json").string();
-    const std::string command = shell_quoted(TENSEGRITY_BINARY) + " forces " + shell_quoted(good_scene_) + " --out " +
-                                shell_quoted(good_solution_) + " 2>/dev/null";
-    ASSERT_EQ(std::system(command.c_str()), 0);
+    fs::create_directories(base_ / "setup-logs");
+    ASSERT_EQ(tensegrity::testing::run_program({"forces", good_scene_, "--out", good_solution_}, base_ / "setup-logs")
+                  .exit_status,
+              0);
     commands_ = available_commands();
   }
   static void TearDownTestSuite() {
@@ -54,11 +54,9 @@ class CliHostileInput : public ::testing::Test {
     fs::remove_all(base_, ec);
   }
   static std::set<std::string> available_commands() {
-    const std::string log = (base_ / "help.txt").string();
-    const std::string command = shell_quoted(TENSEGRITY_BINARY) + " --help >" + shell_quoted(log) + " 2>&1";
-    (void)std::system(command.c_str());
+    const tensegrity::testing::ProgramRun run = tensegrity::testing::run_program({"--help"}, base_ / "setup-logs");
     std::set<std::string> names;
-    std::istringstream help(read_text(log));
+    std::istringstream help(run.out + run.err);
     std::string line;
     bool in_list = false;
     while (std::getline(help, line)) {

@@ -1,14 +1,15 @@
 // End-to-end: the `tensegrity` program as outside scripts use it (docs/FORMATS.md).
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "model/scene_io.hpp"
+#include "process_runner.hpp"
 #include "scenes/suites.hpp"
 #include "solvers/solver.hpp"
 
@@ -17,42 +18,22 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct ProcessResult {
-  int status;
-  std::string out;
-};
-
-// Runs the program with a shell command line; returns exit status and stdout.
-ProcessResult run_cli(const std::string& args) {
-  const bool redirects_stderr = args.find("2>&1") != std::string::npos;
-  const std::string cmd = std::string(TENSEGRITY_BINARY) + " " + args + (redirects_stderr ? "" : " 2>/dev/null");
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
-
 class CliSolve : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() / ("tensegrity-cli-" + std::to_string(::getpid()));
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
   std::string write_scene(const Structure& s) {
-    const std::string path = (dir / (s.name + ".scene.json")).string();
+    const std::string path = scratch.file(s.name + ".scene.json");
     write_scene_file(s, path);
     return path;
   }
-  fs::path dir;
+  // `tensegrity ARGS...`: exit status and standard output.
+  testing::ProgramRun run_cli(const std::vector<std::string>& args) const { return scratch.run(args); }
+  testing::ScratchDir scratch{"cli-solve"};
+  fs::path dir = scratch.work();
 };
 
 TEST_F(CliSolve, SolversListsEveryRegisteredBackend) {
-  const ProcessResult r = run_cli("solvers");
-  EXPECT_EQ(r.status, 0);
+  const testing::ProgramRun r = run_cli({"solvers"});
+  EXPECT_EQ(r.exit_status, 0);
   std::string expected;
   for (const auto& n : solver_names()) expected += n + "\n";
   EXPECT_EQ(r.out, expected);
@@ -61,8 +42,8 @@ TEST_F(CliSolve, SolversListsEveryRegisteredBackend) {
 TEST_F(CliSolve, ForcesConvergedOnAPrismInfeasibleWhenTwisted) {
   const std::string good = write_scene(scenes::prism(5));
   const std::string sol = (dir / "good.json").string();
-  EXPECT_EQ(run_cli("forces " + good + " --out " + sol).status, 0);
-  EXPECT_EQ(run_cli("check " + good + " " + sol).status, 0);
+  EXPECT_EQ(run_cli({"forces", good, "--out", sol}).exit_status, 0);
+  EXPECT_EQ(run_cli({"check", good, sol}).exit_status, 0);
   const auto j = nlohmann::json::parse(std::ifstream(sol));
   EXPECT_EQ(j["status"], "converged");
   EXPECT_LE(j["stats"]["relative_residual"].get<double>(), 1e-12);
@@ -70,11 +51,11 @@ TEST_F(CliSolve, ForcesConvergedOnAPrismInfeasibleWhenTwisted) {
 
   const std::string bad = write_scene(scenes::prism(5, 5.0));
   const std::string sol2 = (dir / "bad.json").string();
-  EXPECT_EQ(run_cli("forces " + bad + " --out " + sol2).status, 1);
+  EXPECT_EQ(run_cli({"forces", bad, "--out", sol2}).exit_status, 1);
   const auto j2 = nlohmann::json::parse(std::ifstream(sol2));
   EXPECT_EQ(j2["status"], "infeasible");
   EXPECT_GE(j2["stats"]["relative_residual"].get<double>(), 1e-3);
-  EXPECT_EQ(run_cli("check " + bad + " " + sol2).status, 1);
+  EXPECT_EQ(run_cli({"check", bad, sol2}).exit_status, 1);
 }
 
 TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
@@ -82,9 +63,9 @@ TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
   for (const auto& name : solver_names()) {
     const std::string sol = (dir / (name + ".json")).string();
     const std::string trace = (dir / (name + ".csv")).string();
-    EXPECT_EQ(run_cli("solve " + scene + " --solver " + name + " --out " + sol + " --trace " + trace).status, 0)
+    EXPECT_EQ(run_cli({"solve", scene, "--solver", name, "--out", sol, "--trace", trace}).exit_status, 0)
         << name;
-    EXPECT_EQ(run_cli("check " + scene + " " + sol).status, 0) << name;
+    EXPECT_EQ(run_cli({"check", scene, sol}).exit_status, 0) << name;
     const auto j = nlohmann::json::parse(std::ifstream(sol));
     for (const char* key : {"format", "version", "status", "positions", "forces", "stats"})
       EXPECT_TRUE(j.contains(key)) << name << " " << key;
@@ -100,22 +81,23 @@ TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
 
 TEST_F(CliSolve, SolveToStandardOutputAndTamperedSolutionFailsTheCheck) {
   const std::string scene = write_scene(scenes::prism(4, 10.0));
-  const ProcessResult r = run_cli("solve " + scene);
-  ASSERT_EQ(r.status, 0);
+  const testing::ProgramRun r = run_cli({"solve", scene});
+  ASSERT_EQ(r.exit_status, 0);
   auto j = nlohmann::json::parse(r.out);
   j["forces"][0] = -j["forces"][0].get<double>();  // a strut now pulls
   const std::string sol = (dir / "tampered.json").string();
   std::ofstream(sol) << j.dump();
-  EXPECT_EQ(run_cli("check " + scene + " " + sol).status, 1);
+  EXPECT_EQ(run_cli({"check", scene, sol}).exit_status, 1);
 }
 
 TEST_F(CliSolve, BadToleranceAndUnknownSolverAreUsageErrors) {
   const std::string scene = write_scene(scenes::prism(3));
   const std::string out = (dir / "never.json").string();
-  for (const char* args : {" --tol 0", " --tol -1", " --tol nan", " --tol inf", " --solver nosuch",
-                           " --option nosuchkey=1"}) {
-    EXPECT_EQ(run_cli("solve " + scene + " --out " + out + args).status, 2) << args;
-    EXPECT_FALSE(fs::exists(out)) << args;
+  for (const auto& [option, value] : std::vector<std::pair<std::string, std::string>>{
+           {"--tol", "0"}, {"--tol", "-1"}, {"--tol", "nan"}, {"--tol", "inf"}, {"--solver", "nosuch"},
+           {"--option", "nosuchkey=1"}}) {
+    EXPECT_EQ(run_cli({"solve", scene, "--out", out, option, value}).exit_status, 2) << option << " " << value;
+    EXPECT_FALSE(fs::exists(out)) << option << " " << value;
   }
 }
 
@@ -137,13 +119,12 @@ TEST_F(CliSolve, OutOfRangeBackendOptionsNameTheOptionAndTheValidRange) {
       {"ipopt", "tol=0", "(valid: a number in (0, inf))"},
   };
   for (const auto& c : cases) {
-    const ProcessResult r = run_cli("solve " + scene + " --solver " + c.solver + " --option " + c.option +
-                                    " --out " + out + " 2>&1 >/dev/null");
-    EXPECT_EQ(r.status, 2) << c.solver << " " << c.option;
+    const testing::ProgramRun r = run_cli({"solve", scene, "--solver", c.solver, "--option", c.option, "--out", out});
+    EXPECT_EQ(r.exit_status, 2) << c.solver << " " << c.option;
     EXPECT_FALSE(fs::exists(out)) << c.solver << " " << c.option;
     const std::string expected = std::string("tensegrity: command line: --option ") + c.option + ": out of range " +
                                  c.range + " (solver " + c.solver + ")\n";
-    EXPECT_EQ(r.out, expected) << c.solver << " " << c.option;
+    EXPECT_EQ(r.err, expected) << c.solver << " " << c.option;
   }
 }
 

@@ -2,37 +2,29 @@
 // bit-identical report run to run and on one or two threads; `solve` gives
 // bit-identical positions and forces run to run with every backend.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
+
+#include "process_runner.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using tensegrity::testing::read_text;
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
+// `tensegrity ARGS...` with its standard error saved as `err`; the exit status.
 int run(const std::vector<std::string>& args, const fs::path& err) {
-  std::string command = "timeout 300 ";
-  command += TENSEGRITY_BINARY;
-  for (const std::string& a : args) command += " '" + a + "'";
-  command += " >/dev/null 2>'" + err.string() + "'";
-  const int raw = std::system(command.c_str());
-  return WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+  const fs::path logs = err.parent_path() / (err.filename().string() + ".logs");
+  fs::create_directories(logs);
+  const tensegrity::testing::ProgramRun r = tensegrity::testing::run_program(args, logs, 300);
+  std::ofstream(err, std::ios::binary) << r.err;
+  return r.exit_status;
 }
 
 class StressTestCommand : public ::testing::Test {

@@ -25,8 +25,8 @@ class GravityPrismDesign : public ::testing::Test {
     dir_ = testing::temp_dir("naive-sweep");
     const std::string scene = testing::gravity_prism_scene(dir_, 4);
     const std::string path =
-        testing::run_design(scene, "--material elastic-cord-2mm --strain 0.3", dir_ + "/prism.design.json");
-    ASSERT_FALSE(path.empty()) << "tensegrity design failed, see " << dir_ << "/prism.design.json.log";
+        testing::run_design(scene, {"--material", "elastic-cord-2mm", "--strain", "0.3"}, dir_ + "/prism.design.json");
+    ASSERT_FALSE(path.empty()) << "tensegrity design failed, see " << dir_ << "/prism.design.json.logs/stderr";
     design_ = read_design_file(path);
   }
   static void TearDownTestSuite() { testing::remove_temp_dir_unless_failed(dir_); }

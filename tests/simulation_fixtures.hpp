@@ -7,11 +7,13 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "design/rest_lengths.hpp"
 #include "model/design.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"
+#include "process_runner.hpp"
 
 namespace tensegrity::testing {
 
@@ -80,12 +82,15 @@ inline void remove_temp_dir_unless_failed(const std::string& dir) {
   std::filesystem::remove_all(dir, ec);
 }
 
-// Runs `tensegrity design INPUT ARGS --out DIR/OUT`; returns the design path ("" on failure).
-inline std::string run_design(const std::string& input, const std::string& args, const std::string& out) {
-  std::string cmd = TENSEGRITY_BINARY;  // appended, not chained: see shipped_material
-  cmd.append(" design ").append(input).append(" ").append(args).append(" --out ").append(out);
-  cmd.append(" > ").append(out).append(".log 2>&1");
-  return std::system(cmd.c_str()) == 0 ? out : std::string();
+// Runs `tensegrity design INPUT ARGS... --out OUT` (its output in OUT.logs/);
+// returns OUT, or "" when the program failed.
+inline std::string run_design(const std::string& input, const std::vector<std::string>& args, const std::string& out) {
+  std::vector<std::string> command = {"design", input};
+  command.insert(command.end(), args.begin(), args.end());
+  command.insert(command.end(), {"--out", out});
+  const std::string logs = out + ".logs";
+  std::filesystem::create_directories(logs);
+  return run_program(command, logs).exit_status == 0 ? out : std::string();
 }
 
 // A prism standing on its fixed bottom ring under gravity, written as a scene

@@ -130,8 +130,8 @@ class DesignedPrism : public ::testing::Test {
   static void TearDownTestSuite() { testing::remove_temp_dir_unless_failed(dir_); }
   static Design design(const std::string& material) {
     const std::string out = dir_ + "/" + material.substr(material.rfind('/') + 1) + ".design.json";
-    const std::string path = testing::run_design(scene_, "--material " + material + " --strain 0.3", out);
-    EXPECT_FALSE(path.empty()) << "tensegrity design failed, see " << out << ".log";
+    const std::string path = testing::run_design(scene_, {"--material", material, "--strain", "0.3"}, out);
+    EXPECT_FALSE(path.empty()) << "tensegrity design failed, see " << out << ".logs/stderr";
     return read_design_file(path);
   }
   static double sag(const Design& d, const Eigen::Vector3d& gravity) {

@@ -1,0 +1,416 @@
+#!/usr/bin/python3
+"""Reference optima of the minimal-geometry-change problem (Eq. 5 of Gauge,
+Coros, Mani, Thomaszewski, "Interactive Design of Modular Tensegrity
+Characters", SCA 2014) for the conformance suite, computed independently of
+the project's C++ code: plain numpy, dense matrices, Newton's method on the
+KKT system with an active set for the sign bounds.
+
+    min_{x, sigma}  |x - x0|^2            (free nodes; fixed nodes never move)
+    s.t.  f_i(x, sigma) = sum_e sigma_e (x_j - x_i) / |x_j - x_i| + m_i g = 0
+                                           for every free node i
+          sum of cable forces of a part = (cables of the part) * F0
+          cable sigma >= margin, strut sigma <= -margin, margin = 1e-3 F0
+
+per connected part: F0 = total gravity load on the part's free nodes when
+positive, else 1 N (the project's force-scale convention, docs/).
+
+Usage (from the repository root):
+    /usr/bin/python3 tests/reference/compute_optima.py tests/reference/scenes tests/reference/optima.json
+"""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+MARGIN_FRACTION = 1e-3
+KKT_TOLERANCE = 1e-12      # infinity norm of the scaled KKT residual
+MAX_NEWTON_STEPS = 200
+
+
+def load_scene(path):
+    with open(path) as f:
+        j = json.load(f)
+    x = np.array([n["x"] for n in j["nodes"]], dtype=float)
+    fixed = np.array([bool(n.get("fixed", False)) for n in j["nodes"]])
+    mass = np.array([float(n.get("mass", 0.0)) for n in j["nodes"]])
+    elements = []
+    for e in j["elements"]:
+        a, b = e["nodes"]
+        elements.append((int(a), int(b), e["kind"]))
+        m = float(e.get("mass", 0.0))
+        mass[a] += 0.5 * m
+        mass[b] += 0.5 * m
+    g = np.array(j.get("gravity", [0.0, 0.0, 0.0]), dtype=float)
+    return {"name": j.get("name", os.path.basename(path)), "x0": x, "fixed": fixed,
+            "mass": mass, "elements": elements, "gravity": g}
+
+
+def connected_parts(n, elements):
+    parent = list(range(n))
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a, b, _ in elements:
+        parent[root(a)] = root(b)
+    roots = sorted({root(i) for i in range(n)})
+    return [root(i) for i in range(n)], roots
+
+
+class Problem:
+    def __init__(self, scene):
+        self.s = scene
+        n = len(scene["x0"])
+        self.free = [i for i in range(n) if not scene["fixed"][i]]
+        self.slot = {i: k for k, i in enumerate(self.free)}  # free node -> block index
+        self.nx = 3 * len(self.free)
+        self.m = len(scene["elements"])
+        self.loads = scene["mass"][:, None] * scene["gravity"][None, :]
+        node_part, roots = connected_parts(n, scene["elements"])
+        f0 = {}
+        for r in roots:
+            weight = sum(np.linalg.norm(self.loads[i]) for i in self.free if node_part[i] == r)
+            f0[r] = weight if weight > 0.0 else 1.0
+        self.parts = []  # (F0, cable indices) per part with cables
+        for r in roots:
+            cables = [e for e, (a, b, k) in enumerate(scene["elements"])
+                      if k == "cable" and node_part[a] == r]
+            if cables:
+                self.parts.append((f0[r], cables))
+        self.lower = np.full(self.m, -np.inf)
+        self.upper = np.full(self.m, np.inf)
+        for e, (a, b, k) in enumerate(scene["elements"]):
+            if k == "cable":
+                self.lower[e] = MARGIN_FRACTION * f0[node_part[a]]
+            else:
+                self.upper[e] = -MARGIN_FRACTION * f0[node_part[a]]
+        self.nc = self.nx + len(self.parts)
+
+    def positions(self, xf):
+        x = self.s["x0"].copy()
+        for k, i in enumerate(self.free):
+            x[i] = xf[3 * k:3 * k + 3]
+        return x
+
+    def constraints(self, xf, sigma):
+        """c(z) and its Jacobian [dc/dx, dc/dsigma]."""
+        x = self.positions(xf)
+        c = np.zeros(self.nc)
+        jx = np.zeros((self.nc, self.nx))
+        js = np.zeros((self.nc, self.m))
+        for i in self.free:
+            c[3 * self.slot[i]:3 * self.slot[i] + 3] += self.loads[i]
+        for e, (a, b, _) in enumerate(self.s["elements"]):
+            d = x[b] - x[a]
+            l = np.linalg.norm(d)
+            u = d / l
+            p = (np.eye(3) - np.outer(u, u)) / l
+            for node, sign in ((a, 1.0), (b, -1.0)):
+                if node not in self.slot:
+                    continue
+                r = 3 * self.slot[node]
+                c[r:r + 3] += sign * sigma[e] * u
+                js[r:r + 3, e] = sign * u
+                # d(sign * sigma * u)/dx_b = sign * sigma * P/l, /dx_a = the negative.
+                for other, s2 in ((b, 1.0), (a, -1.0)):
+                    if other in self.slot:
+                        q = 3 * self.slot[other]
+                        jx[r:r + 3, q:q + 3] += sign * s2 * sigma[e] * p
+        for k, (f0, cables) in enumerate(self.parts):
+            row = self.nx + k
+            c[row] = sigma[cables].sum() - len(cables) * f0
+            js[row, cables] = 1.0
+        return c, jx, js
+
+    def lagrangian_hessian(self, xf, sigma, lam):
+        """Second derivatives of |x - x0|^2 + lam . c with respect to (x, sigma)."""
+        x = self.positions(xf)
+        hxx = 2.0 * np.eye(self.nx)
+        hxs = np.zeros((self.nx, self.m))
+        lam_node = {i: lam[3 * k:3 * k + 3] for k, i in enumerate(self.free)}
+        zero = np.zeros(3)
+        for e, (a, b, _) in enumerate(self.s["elements"]):
+            w = lam_node.get(a, zero) - lam_node.get(b, zero)
+            d = x[b] - x[a]
+            l = np.linalg.norm(d)
+            u = d / l
+            wu = w @ u
+            # h(d) = w . d / |d|: gradient P w / l, Hessian below (d = x_b - x_a).
+            grad = (w - wu * u) / l
+            hess = (-(np.outer(w, u) + np.outer(u, w)) - wu * np.eye(3) + 3.0 * wu * np.outer(u, u)) / l ** 2
+            for n1, s1 in ((b, 1.0), (a, -1.0)):
+                if n1 not in self.slot:
+                    continue
+                r = 3 * self.slot[n1]
+                hxs[r:r + 3, e] += s1 * grad
+                for n2, s2 in ((b, 1.0), (a, -1.0)):
+                    if n2 in self.slot:
+                        q = 3 * self.slot[n2]
+                        hxx[r:r + 3, q:q + 3] += s1 * s2 * sigma[e] * hess
+        return hxx, hxs
+
+
+def initial_forces(prob, xf):
+    """Least-squares forces at the scene geometry, moved inside the sign bounds."""
+    c, jx, js = prob.constraints(xf, np.zeros(prob.m))
+    sigma = np.linalg.lstsq(js, -c, rcond=None)[0]
+    cable = np.isfinite(prob.lower)
+    return np.where(cable, np.maximum(sigma, 2.0 * prob.lower), np.minimum(sigma, 2.0 * prob.upper))
+
+
+def restore_feasibility(prob, xf, sigma):
+    """Minimum-norm Gauss-Newton steps on the constraints: a feasible point
+    near the scene geometry, inside the sign bounds, to start Newton from."""
+    for _ in range(100):
+        c, jx, js = prob.constraints(xf, sigma)
+        if np.abs(c).max() <= 1e-13 * max(1.0, np.abs(prob.loads).max()):
+            break
+        step = -np.linalg.lstsq(np.hstack([jx, js]), c, rcond=None)[0]
+        dx, ds = step[:prob.nx], step[prob.nx:]
+        alpha = 1.0
+        for e in range(prob.m):  # stay strictly inside the bounds
+            if sigma[e] + ds[e] < prob.lower[e]:
+                alpha = min(alpha, 0.9 * (prob.lower[e] - sigma[e]) / ds[e])
+            if sigma[e] + ds[e] > prob.upper[e]:
+                alpha = min(alpha, 0.9 * (prob.upper[e] - sigma[e]) / ds[e])
+        xf, sigma = xf + alpha * dx, sigma + alpha * ds
+    return xf, sigma
+
+
+def feasible_descent(prob, xf, sigma, x0f):
+    """Globalisation: reduced Newton steps on the constraints' tangent space
+    (Hessian of the Lagrangian shifted to be positive definite there), each
+    followed by restore_feasibility and accepted when |x - x0|^2 decreases.
+    Ends near a local optimum, where the Newton-KKT iteration takes over."""
+    for _ in range(500):
+        c, jx, js = prob.constraints(xf, sigma)
+        jac = np.hstack([jx, js])
+        grad = np.concatenate([2.0 * (xf - x0f), np.zeros(prob.m)])
+        lam = np.linalg.lstsq(jac.T, -grad, rcond=None)[0]
+        _, sv, vt = np.linalg.svd(jac)
+        rank = int((sv > 1e-10 * sv[0]).sum())
+        null = vt[rank:].T
+        reduced_grad = null.T @ grad
+        if np.abs(reduced_grad).max() <= 1e-6 * max(1.0, np.abs(grad).max()):
+            break
+        hxx, hxs = prob.lagrangian_hessian(xf, sigma, lam)
+        h = np.block([[hxx, hxs], [hxs.T, np.zeros((prob.m, prob.m))]])
+        hr = null.T @ h @ null
+        low = np.linalg.eigvalsh(hr).min()
+        if low < 1e-3:
+            hr += (1e-3 - low) * np.eye(len(hr))
+        p = -null @ np.linalg.solve(hr, reduced_grad)
+        f_now = (xf - x0f) @ (xf - x0f)
+        alpha = 1.0
+        while alpha > 1e-10:
+            xn, sn = restore_feasibility(prob, xf + alpha * p[:prob.nx], sigma + alpha * p[prob.nx:])
+            if np.all(sn >= prob.lower) and np.all(sn <= prob.upper) and (xn - x0f) @ (xn - x0f) < f_now:
+                break
+            alpha *= 0.5
+        else:
+            break
+        xf, sigma = xn, sn
+    return xf, sigma
+
+
+def kkt(prob, xf, sigma, lam, active):
+    """KKT residual (gradient of the Lagrangian on inactive variables, constraints)."""
+    x0f = np.concatenate([prob.s["x0"][i] for i in prob.free])
+    c, jx, js = prob.constraints(xf, sigma)
+    gx = 2.0 * (xf - x0f) + jx.T @ lam
+    gs = js.T @ lam
+    return c, jx, js, gx, gs
+
+
+def solve(prob):
+    xf = np.concatenate([prob.s["x0"][i] for i in prob.free])
+    x0f = xf.copy()
+    sigma = initial_forces(prob, xf)
+    active = set()
+    xf, sigma = restore_feasibility(prob, xf, sigma)
+    xf, sigma = feasible_descent(prob, xf, sigma, x0f)
+    # Least-squares multipliers at the feasible start.
+    c, jx, js, gx, gs = kkt(prob, xf, sigma, np.zeros(prob.nc), active)
+    lam = np.linalg.lstsq(np.hstack([jx, js]).T, -np.concatenate([gx, gs]), rcond=None)[0]
+    scale = max(1.0, np.abs(prob.loads).max())
+
+    def residual_norm(xf, sigma, lam, active):
+        c, _, _, gx, gs = kkt(prob, xf, sigma, lam, active)
+        inactive = [e for e in range(prob.m) if e not in active]
+        return np.sqrt(c @ c + gx @ gx + gs[inactive] @ gs[inactive])
+
+    steps = 0
+    while steps < MAX_NEWTON_STEPS:
+        steps += 1
+        c, jx, js, gx, gs = kkt(prob, xf, sigma, lam, active)
+        inactive = [e for e in range(prob.m) if e not in active]
+        res = max(np.abs(c).max(), np.abs(gx).max(),
+                  np.abs(gs[inactive]).max() if inactive else 0.0) / scale
+        if res <= KKT_TOLERANCE:
+            # Release an active bound whose multiplier has the wrong sign.
+            # dL/dsigma_e = gs_e must be >= 0 at a lower bound, <= 0 at an upper one.
+            wrong = [e for e in active
+                     if (np.isfinite(prob.lower[e]) and gs[e] < -1e-10) or
+                     (np.isfinite(prob.upper[e]) and gs[e] > 1e-10)]
+            if not wrong:
+                break
+            active.discard(wrong[0])
+            continue
+        hxx, hxs = prob.lagrangian_hessian(xf, sigma, lam)
+        nv = prob.nx + len(inactive)
+        k = np.zeros((nv + prob.nc, nv + prob.nc))
+        k[:prob.nx, :prob.nx] = hxx
+        k[:prob.nx, prob.nx:nv] = hxs[:, inactive]
+        k[prob.nx:nv, :prob.nx] = hxs[:, inactive].T
+        jac = np.hstack([jx, js[:, inactive]])
+        k[:nv, nv:] = jac.T
+        k[nv:, :nv] = jac
+        rhs = -np.concatenate([gx, gs[inactive], c])
+        step = np.linalg.lstsq(k, rhs, rcond=None)[0]
+        dx, ds, dl = step[:prob.nx], step[prob.nx:nv], step[nv:]
+        # Longest step that keeps the inactive forces inside their bounds.
+        alpha, blocking = 1.0, None
+        for idx, e in enumerate(inactive):
+            s_new = sigma[e] + ds[idx]
+            if s_new < prob.lower[e]:
+                a = (prob.lower[e] - sigma[e]) / ds[idx]
+            elif s_new > prob.upper[e]:
+                a = (prob.upper[e] - sigma[e]) / ds[idx]
+            else:
+                continue
+            if a < alpha:
+                alpha, blocking = a, e
+        # Backtracking on the KKT residual norm (Newton is a descent direction for it).
+        r0 = residual_norm(xf, sigma, lam, active)
+        while True:
+            xn = xf + alpha * dx
+            sn = sigma.copy()
+            sn[inactive] += alpha * ds
+            ln = lam + alpha * dl
+            if blocking is not None:
+                sn[blocking] = prob.lower[blocking] if np.isfinite(prob.lower[blocking]) else prob.upper[blocking]
+            if residual_norm(xn, sn, ln, active | ({blocking} if blocking is not None else set())) < r0 or alpha < 1e-8:
+                break
+            alpha *= 0.5
+            blocking = None
+        xf, sigma, lam = xn, sn, ln
+        if blocking is not None:
+            active.add(blocking)
+    c, jx, js, gx, gs = kkt(prob, xf, sigma, lam, active)
+    inactive = [e for e in range(prob.m) if e not in active]
+    res = max(np.abs(c).max(), np.abs(gx).max(), np.abs(gs[inactive]).max() if inactive else 0.0) / scale
+    # Second-order check: the Lagrangian's Hessian on the constraints' null space.
+    hxx, hxs = prob.lagrangian_hessian(xf, sigma, lam)
+    nv = prob.nx + len(inactive)
+    h = np.zeros((nv, nv))
+    h[:prob.nx, :prob.nx] = hxx
+    h[:prob.nx, prob.nx:] = hxs[:, inactive]
+    h[prob.nx:, :prob.nx] = hxs[:, inactive].T
+    jac = np.hstack([jx, js[:, inactive]])
+    _, sv, vt = np.linalg.svd(jac)
+    rank = int((sv > 1e-10 * sv[0]).sum())
+    null = vt[rank:].T
+    reduced_min = float(np.linalg.eigvalsh(null.T @ h @ null).min()) if null.shape[1] else float("inf")
+    x = prob.positions(xf)
+    return {
+        "positions": x.tolist(),
+        "forces": sigma.tolist(),
+        "geometry_change": float(np.linalg.norm(x - prob.s["x0"])),
+        "kkt_residual": float(res),
+        "newton_steps": steps,
+        "active_bounds": sorted(int(e) for e in active),
+        "reduced_hessian_min_eigenvalue": reduced_min,
+        "equilibrium_residual": float(np.abs(c[:prob.nx]).max()) if prob.nx else 0.0,
+        "converged": bool(res <= KKT_TOLERANCE),
+    }
+
+
+def finite_difference_check(prob, rng):
+    """Largest relative error of the analytic derivatives against central differences."""
+    xf = np.concatenate([prob.s["x0"][i] for i in prob.free]) + 1e-2 * rng.standard_normal(prob.nx)
+    sigma = rng.standard_normal(prob.m)
+    lam = rng.standard_normal(prob.nc)
+    c, jx, js = prob.constraints(xf, sigma)
+    hxx, hxs = prob.lagrangian_hessian(xf, sigma, lam)
+    h = 1e-6
+    worst = 0.0
+    for k in range(prob.nx):
+        dxv = np.zeros(prob.nx)
+        dxv[k] = h
+        cp, jxp, jsp = prob.constraints(xf + dxv, sigma)
+        cm, jxm, jsm = prob.constraints(xf - dxv, sigma)
+        worst = max(worst, np.abs((cp - cm) / (2 * h) - jx[:, k]).max())
+        gp = 2 * (xf + dxv) + jxp.T @ lam
+        gm = 2 * (xf - dxv) + jxm.T @ lam
+        worst = max(worst, np.abs((gp - gm) / (2 * h) - hxx[:, k]).max())
+        worst = max(worst, np.abs((jsp.T @ lam - jsm.T @ lam) / (2 * h) - hxs[k, :]).max())
+    return worst
+
+
+def main(argv):
+    if len(argv) != 3:
+        print(__doc__, file=sys.stderr)
+        return 2
+    scene_dir, out_path = argv[1], argv[2]
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    try:
+        commit = subprocess.run(["git", "-C", root, "rev-parse", "HEAD"], capture_output=True,
+                                text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        commit = "unknown"
+    rng = np.random.default_rng(1)
+    scenes = []
+    for name in sorted(os.listdir(scene_dir)):
+        if not name.endswith(".scene.json"):
+            continue
+        scene = load_scene(os.path.join(scene_dir, name))
+        if np.any(scene["gravity"] != 0.0):
+            # Under gravity the force scale of Eq. 5 is a bound on prestress
+            # whose form the backends may change: no reference optimum (README).
+            scenes.append({"name": scene["name"], "file": name, "gravity": True})
+            print("%-34s gravity: no reference optimum" % scene["name"], file=sys.stderr)
+            continue
+        prob = Problem(scene)
+        fd = finite_difference_check(prob, rng)
+        result = solve(prob)
+        result["derivative_check_max_error"] = fd
+        result["file"] = name
+        result["name"] = scene["name"]
+        result["gravity"] = False
+        print("%-34s |dx| %.12g  KKT %.2e  steps %d  active %s  min eig %.3g  fd %.1e" % (
+            scene["name"], result["geometry_change"], result["kkt_residual"], result["newton_steps"],
+            result["active_bounds"], result["reduced_hessian_min_eigenvalue"], fd), file=sys.stderr)
+        if not result["converged"] or fd > 1e-5:
+            print("compute_optima: %s: not converged or wrong derivatives" % name, file=sys.stderr)
+            return 1
+        scenes.append({k: result[k] for k in (
+            "name", "file", "gravity", "geometry_change", "kkt_residual", "equilibrium_residual",
+            "newton_steps", "active_bounds", "reduced_hessian_min_eigenvalue",
+            "derivative_check_max_error", "positions", "forces")})
+    out = {
+        "format": "tensegrity-reference-optima",
+        "version": 1,
+        "problem": "Eq. 5: min |x - x0|^2 s.t. equilibrium, sign bounds with margin 1e-3 F0, "
+                   "mean cable force per part = F0 (F0 = part's free-node weight, else 1 N)",
+        "method": "Newton on the KKT system with an active set for the sign bounds (numpy, dense)",
+        "command": "/usr/bin/python3 tests/reference/compute_optima.py tests/reference/scenes "
+                   "tests/reference/optima.json",
+        "commit": commit,
+        "numpy": np.__version__,
+        "scenes": scenes,
+    }
+    tmp = out_path + ".tmp"
+    with open(tmp, "w") as f:
+        json.dump(out, f, indent=1)
+        f.write("\n")
+    os.replace(tmp, out_path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
