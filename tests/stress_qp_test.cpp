@@ -120,8 +120,8 @@ DenseProblem dense_problem(const Equilibrium& eq, const ForceScale& scale, doubl
   DenseProblem d;
   d.A = Eigen::MatrixXd(eq.A());
   d.f = eq.has_gravity() ? eq.gravity_load() : Eigen::VectorXd::Zero(eq.num_equations());
-  d.c = scale.normalisation_row;
-  d.t = scale.normalisation_target;
+  d.c = scale.has_normalisation() ? scale.normalisation_row : Eigen::VectorXd::Zero(eq.num_elements());
+  d.t = scale.has_normalisation() ? scale.normalisation_target : 0.0;
   d.w2 = w * w;
   d.lower = scale.lower;
   d.upper = scale.upper;
