@@ -6,9 +6,8 @@
 // pattern (a few hundred blocks) ten or so times per solve; Eigen's
 // SimplicialLDLT works entry by entry and spends most of its time on index
 // arithmetic, and CHOLMOD's supernodal code has more overhead than work at
-// this size (both measured on the 80/500 tower: 0.6-1.0 ms and 1.9 ms per
-// factorization against ~0.2 ms here). Working on fixed-size 3x3 blocks
-// keeps the index work per flop 27 times smaller.
+// this size (docs/BENCHMARKS.md compares them). Working on fixed-size 3x3
+// blocks keeps the index work per flop 27 times smaller.
 //
 // Usage: analyze() once per pattern (elimination tree and the block pattern
 // of L, fill included); then per factorization write N's lower-triangle

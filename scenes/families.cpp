@@ -9,7 +9,7 @@
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "scenes/perturb.hpp"
-#include "scenes/reference_scenes.hpp"
+#include "model/reference_scenes.hpp"
 #include "scenes/towers.hpp"
 
 namespace tensegrity::scenes {

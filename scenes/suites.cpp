@@ -4,7 +4,7 @@
 #include <string>
 
 #include "scenes/perturb.hpp"
-#include "scenes/reference_scenes.hpp"
+#include "model/reference_scenes.hpp"
 
 namespace tensegrity::scenes {
 namespace {

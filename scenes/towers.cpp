@@ -10,7 +10,7 @@
 #include "model/links.hpp"
 #include "model/scene_io.hpp"
 #include "scenes/perturb.hpp"
-#include "scenes/reference_scenes.hpp"
+#include "model/reference_scenes.hpp"
 
 namespace tensegrity::scenes {
 namespace {

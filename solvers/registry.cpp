@@ -50,9 +50,9 @@ std::vector<std::string> solver_names() {
 }
 
 std::string default_solver_name() {
-  // The recommended backend (README): Ipopt solves Eq. 5 itself, so it gives
-  // the smallest geometry change, and it converged on every scene we measured;
-  // alternating-gn is faster but moves the geometry more.
+  // The recommended backend: Ipopt solves Eq. 5 itself, so it returns a local
+  // optimum of the geometry change that the other backends approximate
+  // (docs/BACKENDS.md compares them).
   const auto names = solver_names();
   for (const char* preferred : {"ipopt", "alternating-gn", "alternating"})
     if (std::find(names.begin(), names.end(), preferred) != names.end()) return preferred;

@@ -556,13 +556,10 @@ SolveResult solve_faithful_part(const Structure& part, const SolveOptions& optio
 
 SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& options,
                                     const Eigen::VectorXd& initial_forces, const AlternatingOptions& alternating) {
-  // Restarts from the input geometry with other step weights when a run
-  // stalls: which local minimum of Eq. 4 the iteration falls into depends on
-  // how much it lets the forces move against the positions (sigma_weight) and
-  // how far it steps (max_step), and each run costs a few milliseconds on
-  // small scenes. The trace is the successful (or last) run's, its times
+  // Restarts from the input geometry with other step weights (kRestartSchedule)
+  // when a run stalls. The trace is the successful (or last) run's, its times
   // counted from the start of the first run. The interior attempt goes first:
-  // when it converges (most scenes, in ~10 factorizations) it is the answer.
+  // when it converges it is the answer.
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   int iterations = 0;

@@ -23,9 +23,8 @@
 //
 // Start: +F0 on cables, -F0 on struts (reference_forces), not the stress
 // QP: QP forces sit at their bounds, where the affine weights freeze them
-// and the geometry has to move instead (measured: 3-20x the geometry change
-// on the towers). When the caller has no QP forces at the input geometry
-// (SolveOptions::initial_forces) a force-only step first checks whether the
+// and the geometry would have to move instead. When the caller has no QP
+// forces at the input geometry a force-only step first checks whether the
 // input already is a tensegrity (then the geometry is returned unchanged).
 //
 // Returns Converged (verified), or MaxIterations / TimeLimit / NumericalError

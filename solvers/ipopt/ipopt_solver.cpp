@@ -381,9 +381,9 @@ bool IpoptOptions::IsValid(std::string* why) const {
   return true;
 }
 
-SolveResult IpoptSolver::DoSolve(const PartProblem& problem, const IpoptOptions& ipopt_options) const {
-  const Structure& part = problem.part;
-  const SolveOptions& options = problem.options;
+SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOptions& ipopt_options) const {
+  const Structure& part = part_problem.part;
+  const SolveOptions& options = part_problem.options;
   TraceRecorder recorder(options.time_limit_s);
   SolveResult result;
   const ForceScale scale = make_force_scale(part, options.margin_fraction);
@@ -391,8 +391,8 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& problem, const IpoptOptions&
 
   MinimalGeometryChangeNlp nlp(part, scale);
   Eigen::VectorXd sigma0;
-  if (problem.initial_forces.size() == part.num_elements() && problem.initial_forces.allFinite()) {
-    sigma0 = problem.initial_forces;  // the driver's stress QP at this geometry, same scale
+  if (part_problem.initial_forces.size() == part.num_elements() && part_problem.initial_forces.allFinite()) {
+    sigma0 = part_problem.initial_forces;  // the driver's stress QP at this geometry, same scale
   } else {
     StressQp qp(nlp.equilibrium(), scale);
     sigma0 = qp.solve().sigma;

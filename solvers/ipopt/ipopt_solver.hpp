@@ -11,15 +11,17 @@
 // Defaults: exact Hessian, linear_solver mumps, tol 1e-12, constr_viol_tol
 // derived from SolveOptions::tolerance (so that Ipopt's success implies the
 // contract's relative residual), mu_strategy adaptive, max_iter from the
-// iteration budget (SolveOptions::iteration_budget: 2000 when max_iterations
-// is 0), max_cpu_time from time_limit_s (the wall clock is also
-// checked every iteration), print_level 0 and no banner unless verbose (then
-// Ipopt's log goes to stderr; stdout may carry the solution).
+// iteration budget (SolveOptions::iteration_budget), the time limit checked
+// on the wall clock in every iteration (Ipopt's own max_cpu_time counts the
+// CPU time of the whole process, so other threads would cut it short),
+// print_level 0 and no banner unless verbose (then Ipopt's log goes to
+// stderr; stdout may carry the solution).
 //
 // `--option key=value` (SolveOptions::backend_options) passes any Ipopt option
 // through, e.g. hessian_approximation=limited-memory, mu_strategy=monotone,
-// tol=1e-9, max_iter=500. Values are tried as integer, then number, then
-// string; an unknown option name or a rejected value is an OptionError.
+// tol=1e-9, max_iter=500. Each value is typed and range-checked by Ipopt's
+// own option registry; an unknown name or a rejected value is an OptionError
+// that names the valid values.
 #include <memory>
 #include <string>
 #include <string_view>

@@ -62,7 +62,7 @@ struct NloptRun {
 constexpr long kEvaluationsPerIteration = 100;
 constexpr long kLargestEvaluationBudget = 1L << 30;  // NLopt counts evaluations in an int
 
-NloptRun resolve(const NloptRun& o, const SolveOptions& options) {
+NloptRun resolve(const NloptOptions& o, const SolveOptions& options) {
   NloptRun run;
   for (const auto& e : kAlgorithms)
     if (o.algorithm == e.name) run.algorithm = e.algorithm;
