@@ -229,7 +229,9 @@ bool Impl::refined_solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, int refin
     lin_res = b - op_out;
     const double res_norm = lin_res.lpNorm<Eigen::Infinity>();
     if (!std::isfinite(res_norm)) return false;
-    if (res_norm <= 4.0 * kEps * b_norm || res_norm > 0.5 * previous) break;
+    if (res_norm <= RefinementConstants::kRoundingFactor * kEps * b_norm ||
+        res_norm > RefinementConstants::kSlowestContraction * previous)
+      break;
     previous = res_norm;
     aug_rhs.head(m) = lin_res;
     aug_rhs[m] = 0.0;

@@ -16,6 +16,14 @@ using SparseMatrix = Eigen::SparseMatrix<double>;
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
 inline constexpr double kEps = std::numeric_limits<double>::epsilon();
 
+// Iterative refinement of a solve with K against the operator it approximates.
+struct RefinementConstants {
+  // Stop at this many eps times |b|, or when a refinement contracts the
+  // residual by less than this factor (rounding level reached).
+  static constexpr double kRoundingFactor = 4.0;
+  static constexpr double kSlowestContraction = 0.5;
+};
+
 // Projected Newton with an active set.
 struct ProjectedNewtonConstants {
   // Rounds of pinning forces whose Newton component leaves the box (one
