@@ -372,8 +372,8 @@ StressQpResult StressQp::report(const SolveState& st) {
   result.iterations = st.iterations;
   result.factorizations = st.factorizations;
   result.polish_steps = st.polish_steps;
-  for (int i = 0; i < m; ++i)
-    if (!std::isfinite(q.s[i])) q.s[i] = q.project(i, 0.0);
+  // s + (P(v) - s) can leave the box by rounding: the returned forces are projected.
+  for (int i = 0; i < m; ++i) q.s[i] = q.project(i, std::isfinite(q.s[i]) ? q.s[i] : 0.0);
   result.sigma = q.s;
   q.evaluate(st, q.s, 0.0);
   const double e = q.c.dot(q.s) - q.target;

@@ -335,7 +335,7 @@ TEST(StressQp, InteriorPointCrossoverFindsTheGravityTowersWeaklyActiveBounds) {
     EXPECT_TRUE(r.optimal);
     EXPECT_GE(r.active_bounds, 100);
     EXPECT_LE(r.iterations, 40);
-    EXPECT_LE(r.factorizations, 100);
+    EXPECT_LE(r.factorizations, 130);  // the polish refactorizes when a bound joins the held set
     std::printf("gravity tower, noise %.3f: %d iterations, %d factorizations, %d forces at a bound\n", noise,
                 r.iterations, r.factorizations, r.active_bounds);
   }
