@@ -4,7 +4,7 @@
 
 namespace tensegrity {
 
-ForceScale make_force_scale(const Structure& s, double margin_fraction) {
+ForceScale make_force_scale(const Structure& s, double margin_fraction, double prestress_factor) {
   ForceScale scale;
   const int m = s.num_elements();
 
@@ -19,7 +19,9 @@ ForceScale make_force_scale(const Structure& s, double margin_fraction) {
     }
     weight = free_mass * s.gravity.norm();
   }
-  scale.reference_force = weight > 0.0 ? weight : 1.0;
+  scale.load_sets_scale = weight > 0.0;
+  scale.reference_force = scale.load_sets_scale ? weight : 1.0;
+  scale.prestress_factor = prestress_factor;
   scale.margin = margin_fraction * scale.reference_force;
 
   const double inf = std::numeric_limits<double>::infinity();
@@ -37,7 +39,8 @@ ForceScale make_force_scale(const Structure& s, double margin_fraction) {
       scale.upper[e] = -scale.margin;
     }
   }
-  scale.normalisation_target = scale.num_cables * scale.reference_force;
+  if (scale.load_sets_scale) scale.prestress_cap = prestress_factor * scale.num_cables * weight;
+  else scale.normalisation_target = scale.num_cables * scale.reference_force;
   return scale;
 }
 

@@ -1,42 +1,64 @@
 #pragma once
-// The one force-scale convention shared by every backend (README, "Force scale").
+// The one force-scale convention shared by every backend (docs/THEORY-force-scale.md).
 //
-// Without gravity forces are defined only up to a factor; with gravity an
-// unbounded prestress would let the geometry change of Eq. 5 shrink towards
-// zero. Every backend therefore fixes, per connected part of the scene:
+// Per connected part of a scene, with W the total gravity load on the part's
+// free nodes (N):
 //
-//   reference force  F0 = total gravity load on the part's free nodes (N) when
-//                         positive, otherwise 1 N;
-//   normalisation    mean cable force of the part = F0 (one linear equality);
+//   W = 0 (no gravity, or no weight on free nodes): forces are defined only up
+//     to a factor (a self-stress), so the scale is fixed by a normalisation,
+//     the equality  mean cable force = F0 = 1 N  (c^T sigma = n_c F0).
+//   W > 0: the load sets the scale. There is no equality on the force level:
+//     Eq. 4 at fixed geometry is the physical problem, and any sign-correct
+//     equilibrium is a tensegrity whatever its force level. Eq. 5 alone needs a
+//     bound, since a geometry change can shrink by raising the prestress: the
+//     upper bound  mean cable force <= kappa W  (c^T sigma <= n_c kappa W).
+//
+//   reference force  F0 = W when W > 0, otherwise 1 N (the unit of forces);
 //   sign margins     cable sigma >= margin, strut sigma <= -margin,
 //                    margin = margin_fraction * F0.
 //
-// The forces are then dimensionless in the geometry, so scaling a scene's
-// lengths scales the solution's positions and leaves its forces unchanged.
+// The forces are dimensionless in the geometry, so scaling a scene's lengths
+// scales the solution's positions and leaves its forces unchanged.
 #include <Eigen/Core>
+#include <limits>
 
 #include "model/structure.hpp"
 
 namespace tensegrity {
 
+// kappa: the default bound on the mean cable force under gravity, in units of
+// the part's weight (docs/THEORY-force-scale.md says how it was chosen).
+inline constexpr double kDefaultPrestressFactor = 1000.0;
+
 struct ForceScale {
   double reference_force = 1.0;  // F0 (N)
   double margin = 1e-3;          // N
-  int num_cables = 0;            // the normalisation row sums these
+  int num_cables = 0;            // the cable-sum row sums these
+  bool load_sets_scale = false;  // W > 0: no normalisation, a prestress cap instead
+  double prestress_factor = kDefaultPrestressFactor;  // kappa
   // Bounds per element: cables [margin, +inf), struts (-inf, -margin].
   Eigen::VectorXd lower, upper;
-  // Normalisation row: c^T sigma = target with c = 1 on cables, 0 on struts,
-  // target = num_cables * F0. Absent (has_normalisation false) without cables.
+  // Cable-sum row c: 1 on cables, 0 on struts.
   Eigen::VectorXd normalisation_row;
+  // Without gravity: c^T sigma = normalisation_target = n_c F0.
   double normalisation_target = 0.0;
-  bool has_normalisation() const { return num_cables > 0; }
+  // Under gravity: c^T sigma <= prestress_cap = kappa n_c W (Eq. 5 only).
+  double prestress_cap = std::numeric_limits<double>::infinity();
+
+  // The equality c^T sigma = t applies (no load, and cables to normalise).
+  bool has_normalisation() const { return num_cables > 0 && !load_sets_scale; }
+  // The upper bound c^T sigma <= prestress_cap applies (Eq. 5 under gravity).
+  bool has_prestress_cap() const { return num_cables > 0 && load_sets_scale; }
+  // Either of the two: Eq. 5 has a cable-sum row.
+  bool has_cable_sum_row() const { return num_cables > 0; }
 };
 
 // The convention applied to one connected part (or a whole scene).
-ForceScale make_force_scale(const Structure& s, double margin_fraction = 1e-3);
+ForceScale make_force_scale(const Structure& s, double margin_fraction = 1e-3,
+                            double prestress_factor = kDefaultPrestressFactor);
 
-// A starting point that satisfies the bounds and the normalisation exactly:
-// +F0 on cables, -F0 on struts.
+// A starting point within the bounds (and on the normalisation when there is
+// one): +F0 on cables, -F0 on struts.
 Eigen::VectorXd reference_forces(const Structure& s, const ForceScale& scale);
 
 }  // namespace tensegrity

@@ -20,7 +20,7 @@ MinimalGeometryChangeNlp::MinimalGeometryChangeNlp(const Structure& s, const For
   lambda_f_ = Eigen::VectorXd::Zero(nq_);
   f_ = Eigen::VectorXd::Zero(nq_);
 
-  // Jacobian pattern: df/dq, then A, then the normalisation row. The iteration
+  // Jacobian pattern: df/dq, then A, then the cable-sum row. The iteration
   // order used here is the one jacobian_values() repeats.
   const Eigen::SparseMatrix<double>& dfdq = eq_.jacobian_positions(sigma_);
   for (int k = 0; k < dfdq.outerSize(); ++k) {
@@ -38,7 +38,7 @@ MinimalGeometryChangeNlp::MinimalGeometryChangeNlp(const Structure& s, const For
     }
   }
   jac_a_nonzeros_ = static_cast<int>(jac_rows_.size()) - jac_q_nonzeros_;
-  if (scale_.has_normalisation()) {
+  if (scale_.has_cable_sum_row()) {
     for (int e = 0; e < m_; ++e) {
       const double c = scale_.normalisation_row[e];
       if (c == 0.0) continue;
@@ -68,7 +68,7 @@ MinimalGeometryChangeNlp::MinimalGeometryChangeNlp(const Structure& s, const For
 
 int MinimalGeometryChangeNlp::num_variables() const { return nq_ + m_; }
 int MinimalGeometryChangeNlp::num_constraints() const {
-  return nq_ + (scale_.has_normalisation() ? 1 : 0);
+  return nq_ + (scale_.has_cable_sum_row() ? 1 : 0);
 }
 int MinimalGeometryChangeNlp::num_positions() const { return nq_; }
 int MinimalGeometryChangeNlp::num_forces() const { return m_; }
@@ -85,8 +85,13 @@ void MinimalGeometryChangeNlp::variable_bounds(Eigen::VectorXd& lower, Eigen::Ve
 
 void MinimalGeometryChangeNlp::constraint_bounds(Eigen::VectorXd& lower, Eigen::VectorXd& upper) const {
   lower = Eigen::VectorXd::Zero(num_constraints());
-  if (scale_.has_normalisation()) lower[nq_] = scale_.normalisation_target;
   upper = lower;
+  if (scale_.has_normalisation()) lower[nq_] = upper[nq_] = scale_.normalisation_target;
+  // Under gravity only an upper bound: the load sets the force level.
+  if (scale_.has_prestress_cap()) {
+    lower[nq_] = -std::numeric_limits<double>::infinity();
+    upper[nq_] = scale_.prestress_cap;
+  }
 }
 
 Eigen::VectorXd MinimalGeometryChangeNlp::initial_point(const Eigen::VectorXd& sigma0) const {
@@ -129,7 +134,7 @@ void MinimalGeometryChangeNlp::constraints(const Eigen::VectorXd& z, Eigen::Vect
   eq_.residual(sigma_, f_);
   c.resize(num_constraints());
   c.head(nq_) = f_;
-  if (scale_.has_normalisation()) c[nq_] = scale_.normalisation_row.dot(sigma_);
+  if (scale_.has_cable_sum_row()) c[nq_] = scale_.normalisation_row.dot(sigma_);
 }
 
 double MinimalGeometryChangeNlp::max_node_residual(const Eigen::VectorXd& z) {
@@ -174,7 +179,7 @@ void MinimalGeometryChangeNlp::hessian_values(const Eigen::VectorXd& z, double o
                                               const Eigen::VectorXd& lambda, double* values) {
   update_geometry(z);
   copy_forces(z);
-  lambda_f_ = lambda.head(nq_);  // the normalisation row is linear: no curvature
+  lambda_f_ = lambda.head(nq_);  // the cable-sum row is linear: no curvature
   const int nnz = hessian_nonzeros();
   for (int k = 0; k < nnz; ++k) values[k] = 0.0;
   eq_.hessian_values(sigma_, lambda_f_, values);

@@ -6,7 +6,8 @@
 //   objective    |q - q0|^2 / L^2   (L = mean element length of the scene, so
 //                the objective is dimensionless and scale-invariant)
 //   constraints  f(q, sigma) = A(q) sigma + f_g = 0   (3 n_free rows, N)
-//                c^T sigma = t                        (1 row when there are cables)
+//                c^T sigma = t        without gravity  (1 row when there are cables)
+//                c^T sigma <= kappa n_c W  under gravity (ForceScale: the prestress cap)
 //   bounds       sigma within the ForceScale sign margins; q free.
 //
 // Exact sparse gradient, constraint Jacobian and Hessian of the Lagrangian.
@@ -16,7 +17,7 @@
 // q - q0 by L, sigma and the constraint rows by F0).
 //
 // Jacobian triplet order: the 3x3 blocks of df/dq (column by column), then
-// df/dsigma = A (column by column), then the normalisation row.
+// df/dsigma = A (column by column), then the cable-sum row.
 // Hessian triplet order: Equilibrium's lambda^T f triplets, then the diagonal
 // q entries that pattern lacks (the objective's 2/L^2 lives on the q diagonal).
 #include <Eigen/Core>
@@ -37,7 +38,8 @@ class MinimalGeometryChangeNlp {
   int num_positions() const;   // 3 n_free
   int num_forces() const;      // m
 
-  // Variable bounds (+-infinity where unbounded) and constraint bounds (all equalities).
+  // Variable bounds (+-infinity where unbounded) and constraint bounds (equalities,
+  // except the cable-sum row under gravity: (-infinity, prestress_cap]).
   void variable_bounds(Eigen::VectorXd& lower, Eigen::VectorXd& upper) const;
   void constraint_bounds(Eigen::VectorXd& lower, Eigen::VectorXd& upper) const;
 

@@ -4,68 +4,51 @@
 //   min_sigma  |A sigma + f_g|^2 + w^2 (c^T sigma - t)^2 + mu |sigma|^2
 //   s.t.       lower <= sigma <= upper           (ForceScale: sign margins)
 //
-// c^T sigma = t is the normalisation of ForceScale (mean cable force = F0);
-// w weights it; mu is the paper's weak regulariser (it picks the smallest forces
+// c^T sigma = t is the normalisation of ForceScale (mean cable force = F0),
+// present only without gravity (under gravity the load sets the scale and the
+// term is absent); w weights it; mu is the paper's weak regulariser (it picks the smallest forces
 // among equally good ones) and is applied without biasing the residual (the
 // solution is polished on the final free set). A bound-constrained sparse
 // least-squares kernel of our own: the symbolic analysis of the normal matrix is
 // done once per topology, and each solve is warm-started from the previous
 // forces (Algorithm 1 passes them in).
 //
-// Method: projected Newton with an active set. With N = A^T A + w^2 c c^T +
-// mu I and g = N sigma - b the gradient of half the objective, the held set W
-// is the forces at a bound whose gradient points out of the box; each step
-// solves N_FF d_F = -g_F on the free set F and then takes the best (by the
-// exact decrease of the quadratic) of: the projected step P(sigma + d), an
-// Armijo backtracking along the projection arc, and d truncated at the first
-// bound it meets (always a decrease; it makes the blocking bound active).
-// Free forces at a bound whose Newton component points out of the box are
-// pinned there and the step is solved again on the smaller free set (else the
-// projection clips them, the step is no Newton step for the others and the
-// iteration jams). From a cold start a few non-monotone projected steps,
-// taken only from a new best point and safeguarded by a return to the best
-// point, let the projection predict many bound changes at once; warm starts
-// are monotone (near the optimum of a degenerate QP such a step is far off)
-// and their first step holds every force the warm start puts at a bound (the
-// previous active set, usually still right after a small move: one
-// factorization instead of a pinning round per inward-pointing gradient).
-// The active set has settled when an unclipped full Newton step is followed
-// by the same W. The rank-one normalisation term is
-// kept sparse through the quasi-definite augmented matrix
+// Method, in three phases (one file each):
+//  - projected Newton with an active set (stress_qp_projected_newton.cpp).
+//    With N = A^T A + w^2 c c^T + mu I and g = N sigma - b the gradient of
+//    half the objective, the held set W is the forces at a bound whose
+//    gradient points out of the box; each step solves N_FF d_F = -g_F on the
+//    free set and takes the best (by the exact decrease of the quadratic) of
+//    the projected step, Armijo backtracking along the projection arc, and d
+//    truncated at its first bound. The rank-one normalisation term is kept
+//    sparse through the quasi-definite augmented matrix
+//      K = [ A^T A + mu I   c      ]   (held rows/columns replaced by N_ii e_i,
+//          [ c^T           -1/w^2  ]    so the sparsity pattern never changes),
+//    analysed once per topology, refactorized only when W changes, and each
+//    solve with it iteratively refined against N.
+//  - an interior-point phase with crossover (stress_qp_interior_point.cpp):
+//    when the active set changes a few forces per step (near-mechanisms with
+//    many forces at a bound) a Mehrotra predictor-corrector method on the same
+//    pattern finds the optimum's neighbourhood; bounds whose slack is below
+//    their multiplier are snapped, and projected Newton resumes from there.
+//  - a polish (stress_qp_polish.cpp): on the final free set, conjugate
+//    gradients preconditioned by the factorization minimise the objective
+//    without the mu term, so that a tensegrity reaches a residual at rounding
+//    level along near-null directions of A as well.
 //
-//   K = [ A^T A + mu I   c      ]      (held rows/columns replaced by N_ii e_i,
-//       [ c^T           -1/w^2  ]       so the sparsity pattern never changes),
+// Status: `Optimal` means the KKT conditions of the mu-free objective hold to
+// the tolerance (a free force has zero gradient, a force at a bound a gradient
+// pointing out of the box); only then is a positive residual a proof that
+// the geometry is not a tensegrity. `IterationLimit` is no such proof.
 //
-// whose pattern (and that of A^T A) is built and AMD-analysed once; a step
-// only refreshes values and calls factorize(), and reuses the factorization
-// while the held set is unchanged. Each solve with K is iteratively refined
-// against N (the near-null directions of A^T A, damped only by mu, would
-// otherwise cost ~6 digits). Once the active set has settled, the free
-// forces are polished by iterated Tikhonov steps (sigma_F += argmin
-// |M_F d - r|^2 + mu |d|^2, M = [A; w c^T]) with the same factorization, so
-// that the returned forces minimise the objective without the mu term to
-// rounding accuracy: a geometry that is a tensegrity reaches a relative
-// residual near machine precision.
-//
-// Near-mechanisms with many forces at a bound make the active set change a
-// few forces per step; after interior_point_after steps without settling (or
-// when no progress is possible) one Mehrotra predictor-corrector
-// interior-point phase on the same pattern (diagonal barrier terms added to
-// K) finds the optimum's neighbourhood, bounds whose slack is below their
-// multiplier are snapped (crossover), mu is re-centred on that point, and
-// projected Newton resumes. The polish is judged by the exact change of the
-// residual objective (a difference of objectives is lost in rounding where
-// the residual does not vanish).
-//
-// Limits: where [A; w c^T] has a null space (more forces than conditions)
-// only mu picks among equally good forces, and double precision fixes that
-// choice to about eps / mu (~1e-6 relative for mu = 1e-10); the residual
-// is unaffected. Degenerate infeasible scenes (near-null directions of A^T A
-// next to active bounds) can take ~5-15 factorizations even when warm.
+// Limits: where [A; w c^T] has a null space only mu picks among equally good
+// forces, and double precision fixes that choice to about eps / mu relative;
+// the residual is unaffected.
 //
 // Units: forces and gradients in N (A is dimensionless: unit-vector columns).
 #include <Eigen/Core>
 #include <memory>
+#include <string>
 
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
@@ -80,8 +63,7 @@ struct StressQpOptions {
   // max(F0, |sigma|_inf, |f_g|_inf). Never taken below 32 eps sqrt(m + 1),
   // the rounding level of the gradient itself.
   double optimality_tolerance = 1e-13;
-  int max_polish_steps = 30;         // iterated-Tikhonov steps on the final free set (stops when
-                                     // the residual falls by less than 1 % in a step)
+  int max_polish_steps = 30;         // polish steps (conjugate-gradient solves) on the final free set
   // Centre the mu term on the (projected) warm start instead of the origin:
   // among equally good forces, those closest to the warm start. On
   // near-mechanisms the pull towards the origin moves many forces along
@@ -96,7 +78,20 @@ struct StressQpOptions {
   bool IsValid() const;              // mu > 0, w >= 0, all finite, counts >= 0
 };
 
+enum class StressQpStatus {
+  Optimal,           // KKT conditions met: the residual is the optimum's
+  IterationLimit,    // stopped before certifying (iteration cap, or no progress)
+  NumericalFailure,  // a factorization failed, a value was not finite, or a degenerate element
+};
+const char* to_string(StressQpStatus status);
+
+namespace stress_qp_detail {
+struct SolveState;
+}
+
 struct StressQpResult {
+  StressQpStatus status = StressQpStatus::NumericalFailure;
+  std::string message;            // one line: why this status
   Eigen::VectorXd sigma;          // m, within the bounds
   double equilibrium_norm = 0.0;  // |A sigma + f_g| (N)
   double max_node_residual = 0.0; // max over free nodes of |f_i| (N)
@@ -108,10 +103,10 @@ struct StressQpResult {
   int active_bounds = 0;          // forces at a bound
   // Largest violation of the KKT conditions of the objective without the mu
   // term (free forces: zero gradient; forces at a bound: gradient pointing out
-  // of the box), each allowed mu |sigma_i|, relative to the scale of the
-  // tolerance above.
+  // of the box, allowed the mu term's pull there), relative to the scale of
+  // the tolerance above.
   double kkt_error = 0.0;
-  bool optimal = false;           // KKT conditions met within the tolerance
+  bool optimal = false;           // status == Optimal
 };
 
 class StressQp {
@@ -138,6 +133,7 @@ class StressQp {
  private:
   struct Impl;
   StressQpResult solve_from(const Eigen::VectorXd& sigma0, bool warm_start);
+  StressQpResult report(const stress_qp_detail::SolveState& st);
   const Equilibrium& eq_;
   ForceScale scale_;
   StressQpOptions options_;

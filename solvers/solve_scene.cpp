@@ -79,14 +79,16 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   SolveResult r;
   if (v.ok) {
     r = unchanged_part(part, qr.sigma, Status::Converged, "already in equilibrium at the scene geometry");
-  } else if (qr.optimal) {
+  } else if (qr.status == StressQpStatus::Optimal) {
     r = unchanged_part(part, qr.sigma, Status::Infeasible,
                        "the scene geometry is not a tensegrity (the stress QP's optimum has relative residual " +
-                           std::to_string(v.relative_residual) + ")");
-  } else {
+                           std::to_string(v.relative_residual) + "; " + qr.message + ")");
+  } else if (qr.status == StressQpStatus::IterationLimit) {
     r = unchanged_part(part, qr.sigma, Status::MaxIterations,
                        "the stress QP stopped before certifying its optimum (relative residual " +
-                           std::to_string(v.relative_residual) + ", KKT error " + std::to_string(qr.kkt_error) + ")");
+                           std::to_string(v.relative_residual) + "; " + qr.message + ")");
+  } else {
+    r = unchanged_part(part, qr.sigma, Status::NumericalError, "the stress QP failed: " + qr.message);
   }
   r.stats.iterations = qr.iterations;
   TracePoint start;

@@ -10,6 +10,7 @@
 #include <random>
 
 #include "formulations/force_scale.hpp"
+#include "model/reference_scenes.hpp"
 #include "scenes/suites.hpp"
 
 namespace tensegrity {
@@ -202,6 +203,36 @@ TEST(MinimalGeometryChangeNlp, FixedNodesAreNotUnknowns) {
   EXPECT_EQ(nlp.num_positions(), 3 * 5);
   EXPECT_EQ(nlp.num_forces(), 20);
   EXPECT_EQ(nlp.num_constraints(), 16);
+}
+
+}  // namespace
+}  // namespace tensegrity
+
+namespace tensegrity {
+namespace {
+
+// Under gravity the cable-sum row is an upper bound on the prestress, never an
+// equality on the force level.
+TEST(MinimalGeometryChangeNlp, UnderGravityTheCableSumRowIsAnUpperBound) {
+  PrismParameters p;
+  p.n = 4;
+  p.gravity = true;
+  p.fix_bottom = true;
+  p.strut_mass = 0.5;
+  const Structure s = make_regular_prism(p);
+  const ForceScale scale = make_force_scale(s, 1e-3, 20.0);
+  MinimalGeometryChangeNlp nlp(s, scale);
+  ASSERT_EQ(nlp.num_constraints(), nlp.num_positions() + 1);
+  Eigen::VectorXd lower, upper;
+  nlp.constraint_bounds(lower, upper);
+  const int row = nlp.num_positions();
+  EXPECT_TRUE(std::isinf(lower[row]) && lower[row] < 0.0);
+  EXPECT_NEAR(upper[row], 20.0 * 12 * scale.reference_force, 1e-9);
+  EXPECT_EQ(lower.head(row).lpNorm<Eigen::Infinity>(), 0.0);
+  Eigen::VectorXd c;
+  const Eigen::VectorXd sigma = reference_forces(s, scale);
+  nlp.constraints(nlp.initial_point(sigma), c);
+  EXPECT_NEAR(c[row], 12 * scale.reference_force, 1e-9);  // the row is c^T sigma
 }
 
 }  // namespace

@@ -118,7 +118,7 @@ class Eq5Tnlp : public Ipopt::TNLP {
     }
     nlp_.constraint_bounds(lower, upper);
     for (int r = 0; r < ncon_; ++r) {
-      g_l[r] = lower[r] / force_;
+      g_l[r] = finite_or_ipopt_infinity(lower[r] / force_);  // -inf: the prestress cap row
       g_u[r] = upper[r] / force_;
     }
     return true;

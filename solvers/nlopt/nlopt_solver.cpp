@@ -172,8 +172,14 @@ class ScaledProblem {
     gradient_.resize(n_);
     raw_constraints_.resize(num_constraints_);
     Eigen::VectorXd lo, hi;
-    nlp_.constraint_bounds(lo, hi);  // all equalities: c(z) = lo
+    nlp_.constraint_bounds(lo, hi);
     constraint_target_ = lo;
+    // Under gravity the cable-sum row is the upper bound c^T sigma <= cap: an
+    // equality on its hinge max(0, c^T sigma - cap) (zero gradient while below).
+    if (scale.has_prestress_cap()) {
+      cap_row_ = num_positions_;
+      constraint_target_[cap_row_] = hi[cap_row_];
+    }
     nlp_.variable_bounds(lo, hi);
     lower_.resize(n_);
     upper_.resize(n_);
@@ -217,13 +223,22 @@ class ScaledProblem {
     nlp_.constraints(z_, raw_constraints_);
     Eigen::Map<Eigen::VectorXd>(c, num_constraints_) =
         (raw_constraints_ - constraint_target_).cwiseProduct(row_weight_);
+    if (cap_row_ >= 0) c[cap_row_] = std::max(0.0, c[cap_row_]);
+  }
+  // Whether Jacobian row r is zero at the current point (the hinge of the
+  // prestress cap below the cap).
+  bool row_inactive(int r) const {
+    return r == cap_row_ &&
+           nlp_.force_scale().normalisation_row.dot(z_.tail(n_ - num_positions_)) <= constraint_target_[r];
   }
   // grad += (dc/dy)^T v.
   void add_jacobian_transpose_times(const double* y, const double* v, double* grad) {
     set(y);
     nlp_.jacobian_values(z_, jac_values_.data());
+    const bool skip_cap = cap_row_ >= 0 && row_inactive(cap_row_);
     for (std::size_t k = 0; k < jac_values_.size(); ++k) {
       const int r = jac_rows_[k], col = jac_cols_[k];
+      if (skip_cap && r == cap_row_) continue;
       grad[col] += jac_values_[k] * row_weight_[r] * v[r] * unit_[col];
     }
   }
@@ -233,8 +248,10 @@ class ScaledProblem {
     set(y);
     nlp_.jacobian_values(z_, jac_values_.data());
     std::fill(jac, jac + static_cast<std::size_t>(num_constraints_) * n_, 0.0);
+    const bool skip_cap = cap_row_ >= 0 && row_inactive(cap_row_);
     for (std::size_t k = 0; k < jac_values_.size(); ++k) {
       const int r = jac_rows_[k], col = jac_cols_[k];
+      if (skip_cap && r == cap_row_) continue;
       jac[static_cast<std::size_t>(r) * n_ + col] += jac_values_[k] * row_weight_[r] * unit_[col];
     }
   }
@@ -282,6 +299,7 @@ class ScaledProblem {
   double length_ = 1.0;
   double gravity_load_scale_ = 0.0;
   int n_ = 0, num_constraints_ = 0, num_positions_ = 0;
+  int cap_row_ = -1;  // the prestress cap's row under gravity, else -1
   Eigen::VectorXd unit_, row_weight_, constraint_target_, z_, gradient_, raw_constraints_;
   std::vector<int> jac_rows_, jac_cols_;
   std::vector<double> jac_values_;

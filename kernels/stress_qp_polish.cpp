@@ -1,0 +1,112 @@
+// The polish of the stress QP (kernels/stress_qp.hpp): on the final free set,
+// the objective without the mu term is minimised by conjugate gradients
+// preconditioned with the factorization of (N + mu I)_FF, so that the
+// returned forces carry no mu bias and a tensegrity reaches a residual at
+// rounding level even along near-null directions of A (which the mu term
+// alone damps, and which a plain iterated-Tikhonov polish resolves only at
+// the rate mu / (mu + lambda_min) per step).
+#include <algorithm>
+#include <cmath>
+
+#include "kernels/stress_qp_impl.hpp"
+
+namespace tensegrity {
+namespace stress_qp_detail {
+
+using C = PolishConstants;
+
+namespace {
+
+// out = (A^T A + w^2 c c^T)_FF x on the free set (held entries are zero).
+void apply_free_normal(Impl& q, const SparseMatrix& A, const Eigen::VectorXd& x, Eigen::VectorXd& out) {
+  for (int i = 0; i < q.m; ++i) q.masked[i] = q.held[i] ? 0.0 : x[i];
+  q.a_step.noalias() = A * q.masked;
+  out.noalias() = A.transpose() * q.a_step;
+  out += (q.w2 * q.c.dot(q.masked)) * q.c;
+  for (int i = 0; i < q.m; ++i)
+    if (q.held[i]) out[i] = 0.0;
+}
+
+// Preconditioned CG on (A^T A + w^2 c c^T)_FF x = b; false on a non-finite value.
+bool conjugate_gradients(Impl& q, const SparseMatrix& A, const Eigen::VectorXd& b, double stop,
+                         Eigen::VectorXd& x) {
+  x.setZero(q.m);
+  q.cg_r = b;
+  q.apply_preconditioner(q.cg_r, q.cg_z);
+  q.cg_p = q.cg_z;
+  double rz = q.cg_r.dot(q.cg_z);
+  for (int k = 0; k < C::kMaxCgIterations && rz > 0.0; ++k) {
+    if (q.cg_r.lpNorm<Eigen::Infinity>() <= stop) break;
+    apply_free_normal(q, A, q.cg_p, q.cg_q);
+    const double curvature = q.cg_p.dot(q.cg_q);
+    if (!(curvature > 0.0)) break;  // a null direction of A_F: nothing more to gain
+    const double alpha = rz / curvature;
+    x += alpha * q.cg_p;
+    q.cg_r -= alpha * q.cg_q;
+    q.apply_preconditioner(q.cg_r, q.cg_z);
+    const double rz_next = q.cg_r.dot(q.cg_z);
+    q.cg_p = q.cg_z + (rz_next / rz) * q.cg_p;
+    rz = rz_next;
+  }
+  return x.allFinite();
+}
+
+}  // namespace
+
+void Impl::polish(const StressQpOptions& options, SolveState& st) {
+  const SparseMatrix& A = *st.A;
+  auto residual_objective = [&]() {
+    evaluate(st, s, 0.0);
+    const double e = c.dot(s) - target;
+    return r.squaredNorm() + w2 * e * e;
+  };
+  bool refactor = true;
+  double current = residual_objective();
+  for (int k = 0; k < options.max_polish_steps; ++k) {
+    const double scale = gradient_scale(st, s);
+    if (current <= std::pow(C::kCgRoundingFactor * kEps * scale, 2)) break;
+    if (refactor) {
+      for (int i = 0; i < m; ++i) held[i] = s[i] <= lower[i] || s[i] >= upper[i];
+      if (!(factorization_valid && held == factored_held)) {
+        ++st.factorizations;
+        if (!factorize(held)) {
+          st.ok = false;
+          return;
+        }
+      }
+      refactor = false;
+    }
+    for (int i = 0; i < m; ++i) rhs[i] = held[i] ? 0.0 : -g[i];
+    if (!conjugate_gradients(*this, A, rhs, C::kCgRoundingFactor * kEps * scale, d)) break;
+    // The step stops at the first bound it meets (which then joins the held set).
+    double alpha = 1.0;
+    for (int i = 0; i < m; ++i) {
+      if (held[i]) continue;
+      if (d[i] < 0.0 && s[i] + d[i] < lower[i]) alpha = std::min(alpha, (lower[i] - s[i]) / d[i]);
+      if (d[i] > 0.0 && s[i] + d[i] > upper[i]) alpha = std::min(alpha, (upper[i] - s[i]) / d[i]);
+    }
+    trial = s;
+    for (int i = 0; i < m; ++i)
+      if (!held[i]) s[i] = project(i, s[i] + alpha * d[i]);
+    // The step's exact change of the objective, 2 g.dx + |A dx|^2 + w^2 (c.dx)^2
+    // (g: half the mu-free gradient, zero on held forces): where the residual
+    // does not vanish, a difference of two objectives is lost in rounding.
+    step = s - trial;
+    for (int i = 0; i < m; ++i)
+      if (held[i]) g[i] = 0.0;
+    const double change = 2.0 * g.dot(step) + curvature(A, step);
+    if (!(change < 0.0)) {  // rounding level reached: keep the better point
+      s = trial;
+      evaluate(st, s, 0.0);
+      break;
+    }
+    ++st.polish_steps;
+    const bool slow = -change < C::kSlowProgress * current;
+    current = residual_objective();
+    refactor = alpha < 1.0;
+    if (slow && !refactor) break;
+  }
+}
+
+}  // namespace stress_qp_detail
+}  // namespace tensegrity
