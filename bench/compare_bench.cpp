@@ -190,7 +190,7 @@ Structure tower(bool gravity) {
 }
 
 std::vector<BenchScene> all_scenes() {
-  using namespace tensegrity::testing;
+  using namespace tensegrity::scenes;
   std::vector<BenchScene> v;
   auto add = [&](Structure s) { v.push_back({"compare", std::move(s)}); };
   // Reference prisms and octahedron, moved off equilibrium (their own

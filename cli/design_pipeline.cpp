@@ -82,8 +82,8 @@ CableMaterial find_material_impl(const std::string& name, const std::vector<std:
   throw InputError("command line", item, "material '" + name + "' not found (searched " + searched + ")");
 }
 
-// "elements[E] (cable of block B)" for messages.
-std::string element_name(const Structure& s, int e) {
+// "elements[E] (cable of block B)": the element as a message names it.
+std::string element_description(const Structure& s, int e) {
   std::string name = "elements[" + std::to_string(e) + "] (" +
                      (s.elements[e].kind == ElementKind::Cable ? "cable" : "strut");
   const nlohmann::json& extra = s.element_extra[e];
@@ -115,7 +115,7 @@ std::string stiffness_failure_reason(const Design& d, const StiffnessProblem& pr
     const CableMaterial& mat = *materials_of[e];
     std::ostringstream r;
     r.precision(4);
-    r << element_name(s, e) << ": no equilibrium at the form-found geometry keeps every cable inside its "
+    r << element_description(s, e) << ": no equilibrium at the form-found geometry keeps every cable inside its "
       << "material's measured force range; at best this cable (and " << fc.tightest.size() - 1
       << " more equally tight) must pull " << fc.ratio * mat.force_max() << " N, " << fc.ratio << " times the "
       << mat.force_max() << " N that material '" << mat.name << "' reaches at its largest measured strain "
@@ -279,7 +279,7 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
     // failure here is a solver defect, reported like one.
     rest = compute_rest_lengths(d.structure, d.structure.positions, forces, materials_of);
     if (!rest.ok)
-      return fail(element_name(d.structure, rest.out_of_range.front()), "rest length: " + rest.message);
+      return fail(element_description(d.structure, rest.out_of_range.front()), "rest length: " + rest.message);
     const Eigen::VectorXd back =
         cable_forces_from_rest_lengths(d.structure, d.structure.positions, rest.rest_lengths, materials_of);
     double round_trip = 0.0;
