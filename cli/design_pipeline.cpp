@@ -82,6 +82,16 @@ CableMaterial find_material_impl(const std::string& name, const std::vector<std:
   throw InputError("command line", item, "material '" + name + "' not found (searched " + searched + ")");
 }
 
+// The design's bound on prestress under gravity: mean cable force at most the
+// weight of the part (formulations/force_scale.hpp, kappa).
+constexpr double kDesignPrestressFactor = 1.0;
+
+// Whether the forces respect the prestress cap of every part with weight.
+bool within_prestress_cap(const Structure& scene, const Eigen::VectorXd& forces, const SolveOptions& options) {
+  const ForceScale scale = make_force_scale(scene, options.margin_fraction, options.prestress_factor);
+  return !scale.has_prestress_cap() || scale.normalisation_row.dot(forces) <= scale.prestress_cap;
+}
+
 // "elements[E] (cable of block B)": the element as a message names it.
 std::string element_description(const Structure& s, int e) {
   std::string name = "elements[" + std::to_string(e) + "] (" +
@@ -213,11 +223,16 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
     if (!check.ok) throw InputError(req.options_source, "--naive-fraction", check.message);
   }
 
-  // Stage 1: form finding, only when the input geometry is not a tensegrity.
-  SolveResult ff = solve_forces_only(scene, options);
+  // Stage 1: form finding, unless the input geometry already stands with a
+  // prestress a cord can be designed for (mean cable force at most the
+  // weight, kDesignPrestressFactor): a near-mechanism may stand only on huge
+  // forces, and then Eq. 5 with that cap moves it a little instead.
+  SolveOptions form_options = options;
+  form_options.prestress_factor = kDesignPrestressFactor;
+  SolveResult ff = solve_forces_only(scene, form_options);
   std::string form_solver = "none (already in equilibrium)";
-  if (ff.status != Status::Converged) {
-    ff = solve_scene(solver, scene, options);
+  if (ff.status != Status::Converged || !within_prestress_cap(scene, ff.forces, form_options)) {
+    ff = solver.Solve(scene, form_options, DriverControls{false});
     form_solver = std::string(solver.name());
     std::cerr << summary_line(scene, form_solver, ff) << "\n";
     if (ff.status != Status::Converged)

@@ -55,7 +55,7 @@ void set_cable_names(Block& b, const std::vector<std::string>& names) {
 
 // The keys of a block file (docs/FORMATS.md).
 const std::vector<std::string_view> kBlockKeys = {"format", "version", "name",     "source",
-                                                                "counts", "nodes",   "elements", "faces"};
+                                                                "counts", "nodes",   "elements", "faces", "ties"};
 const std::vector<std::string_view> kBlockCountKeys = {"nodes", "struts", "cables"};
 const std::vector<std::string_view> kBlockElementKeys = {"kind", "nodes", "force", "name"};
 const std::vector<std::string_view> kBlockFaceKeys = {"name", "nodes", "normal"};

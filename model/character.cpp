@@ -24,7 +24,7 @@ const std::vector<std::string_view> kCharacterKeys = {
     "format", "version", "name", "description", "block_library", "gravity",
     "strut_density", "cable_density", "blocks", "links", "ground"};
 const std::vector<std::string_view> kBlockInstanceKeys = {
-    "id", "type", "scale", "rotation_deg", "translation", "displacements"};
+    "id", "type", "scale", "rotation_deg", "translation", "displacements", "ties"};
 const std::vector<std::string_view> kDisplacementKeys = {"node", "by"};
 const std::vector<std::string_view> kLinkKeys = {"id", "type", "a", "b", "depth"};
 const std::vector<std::string_view> kLinkSideKeys = {"block", "face", "facing", "toward", "cable"};

@@ -200,6 +200,7 @@ bool SolveOptions::IsValid(std::string* why) const {
   if (!(time_limit_s > 0.0) || std::isnan(time_limit_s)) return fail("time_limit_s must be > 0");
   if (!(std::isfinite(margin_fraction) && margin_fraction > 0.0 && margin_fraction < 1.0))
     return fail("margin_fraction must be in (0, 1)");
+  if (!(prestress_factor > 0.0) || std::isnan(prestress_factor)) return fail("prestress_factor must be > 0");
   return true;
 }
 

@@ -270,22 +270,21 @@ TEST(AlternatingSolver, PerturbedOctahedraConverge) {
   run_cases(cases);
 }
 
-// The benchmark characters with 1 % node noise: the faithful scheme converges
-// because its warm stress QPs are proximal (measured on these two scenes:
-// duck 1351 and puppy 252 outer iterations, 824 and 236 with step_length=sdc;
-// with the origin-centred QP, qp_proximal=false, both end `max_iterations`
-// after 2000 at relative residual 1.6e-5 and 5.8e-6). Scorpion converges too
-// but takes 5-8 s.
+// The characters with 1 % node noise: the faithful scheme converges because
+// its warm stress QPs are proximal (with qp_proximal=false it ends at its
+// budget). Under gravity the load sets the force scale, so a perturbed
+// character may still stand (geometry change 0); it never needs to move
+// further than undoing the perturbation.
 TEST(AlternatingSolver, FaithfulSchemeConvergesOnPerturbedCharacters) {
   const std::string characters = std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/";
-  for (const char* name : {"duck", "puppy"}) {
-    const Case c{std::string(name) + " noise 0.01",
-                 perturbed(build_character_file(characters + name + ".character.json").structure, 0.01, 31)};
+  for (const char* name : {"minimal/duck", "puppy"}) {
+    const Structure built = build_character_file(characters + name + ".character.json").structure;
+    const Case c{std::string(name) + " noise 0.01", perturbed(built, 0.01, 31)};
     SolveOptions options;
-    options.time_limit_s = 60.0;  // generous for the sanitizer build; Release takes < 1 s
+    options.time_limit_s = 60.0;  // generous for the sanitizer build
     const SolveResult r = solve_scene(*make_solver("alternating"), c.scene, options);
     expect_converged_and_verified(c, r, "alternating");
-    EXPECT_GT(r.stats.geometry_change, 0.0);
+    EXPECT_LE(r.stats.geometry_change, (c.scene.positions - built.positions).norm()) << name;
   }
 }
 

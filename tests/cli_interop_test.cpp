@@ -17,7 +17,7 @@
 #include "model/scene_io.hpp"
 #include "model/solution.hpp"
 #include "process_runner.hpp"
-#include "scene_fixtures.hpp"
+#include "scenes/suites.hpp"
 
 namespace tensegrity {
 namespace {
@@ -52,7 +52,7 @@ std::set<std::tuple<int, int, int>> element_set(const Structure& s) {
 TEST(CliCompare, PerturbedPrismGivesFourVerifiedRowsAndOneStartPoint) {
   ScratchDir dir("cli-compare");
   const std::string scene = dir.file("prism.scene.json"), out = dir.file("compare");
-  write_scene_file(testing::perturbed(testing::prism(6), 0.05, 17u), scene);
+  write_scene_file(scenes::perturbed(scenes::prism(6), 0.05, 17u), scene);
   const auto r = dir.run({"compare", scene, "--out", out, "--repeat", "1"}, 600);
   ASSERT_EQ(r.exit_status, 0) << r.err << r.out;
   const auto rows = csv_rows(testing::read_text(out + "/compare.csv"));
@@ -95,7 +95,7 @@ TEST(CliCompare, PerturbedPrismGivesFourVerifiedRowsAndOneStartPoint) {
 TEST(CliCompare, UnknownSolverIsBadInput) {
   ScratchDir dir("cli-compare");
   const std::string scene = dir.file("prism.scene.json");
-  write_scene_file(testing::prism(3), scene);
+  write_scene_file(scenes::prism(3), scene);
   const auto r = dir.run({"compare", scene, "--solvers", "alternating,nope", "--out", dir.file("c")});
   EXPECT_EQ(r.exit_status, 2);
   EXPECT_TRUE(testing::is_one_line(r.err)) << r.err;
@@ -157,7 +157,7 @@ TEST(CliImport, NtrtRoundTripOfTheDuckKeepsNodesAndElements) {
 TEST(CliExport, FormatFromTheExtension) {
   ScratchDir dir("cli-export");
   const std::string scene = dir.file("prism.scene.json");
-  write_scene_file(testing::prism(3), scene);
+  write_scene_file(scenes::prism(3), scene);
   ASSERT_EQ(dir.run({"export", scene, "--out", dir.file("p.obj")}).exit_status, 0);
   const std::string obj = testing::read_text(dir.file("p.obj"));
   EXPECT_EQ(obj.find("# vtk"), std::string::npos);
@@ -193,7 +193,7 @@ namespace {
 TEST(CliCheck, JsonSummaryMatchesTheSolution) {
   testing::ScratchDir dir("cli-check");
   const std::string scene = dir.file("prism.scene.json"), solution = dir.file("prism.solution.json");
-  write_scene_file(testing::perturbed(testing::prism(4), 0.05, 3u), scene);
+  write_scene_file(scenes::perturbed(scenes::prism(4), 0.05, 3u), scene);
   ASSERT_EQ(dir.run({"solve", scene, "--out", solution}).exit_status, 0);
   const auto r = dir.run({"check", scene, solution, "--json"});
   ASSERT_EQ(r.exit_status, 0) << r.err;

@@ -386,7 +386,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   const SolveOptions& options = part_problem.options;
   TraceRecorder recorder(options.time_limit_s);
   SolveResult result;
-  const ForceScale scale = make_force_scale(part, options.margin_fraction);
+  const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
   const double max_free_weight = max_free_node_weight(part);
 
   MinimalGeometryChangeNlp nlp(part, scale);

@@ -726,7 +726,7 @@ SolveResult NloptSolver::DoSolve(const PartProblem& problem, const NloptOptions&
   const SolveOptions& options = problem.options;
   const NloptRun o = resolve(nlopt_options, options);
   TraceRecorder recorder(options.time_limit_s);
-  const ForceScale scale = make_force_scale(part, options.margin_fraction);
+  const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
   SolveResult result;
 
   // Sigma_0: the stress QP at the scene geometry is the natural warm start;
