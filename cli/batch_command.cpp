@@ -8,7 +8,7 @@
 // with the wall-clock time, the process CPU time and the speed-up:
 // --measure-speedup first solves everything with one job and reports
 // serial wall time / parallel wall time; without it the summary gives the sum
-// of the solve times over the wall time (an estimate that a loaded machine inflates).
+// of the solve times over the wall time (an estimate that other load on the machine inflates).
 // Exit status: 0 if every scene converged, 1 otherwise, 2 bad input (all scenes
 // are read before anything is solved).
 #include <dlfcn.h>

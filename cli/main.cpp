@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "cli/commands.hpp"
+#include "cli/output.hpp"
 #include "model/errors.hpp"
 #include "model/known_keys.hpp"
 
@@ -47,8 +48,7 @@ int main(int argc, char** argv) {
     return run ? run() : 2;
   } catch (const OptionError& e) {
     // The library names the option; the command line names the flag that gave it.
-    std::cerr << "tensegrity: command line: --option " << e.key() << (e.value().empty() ? "" : "=" + e.value())
-              << ": " << e.reason() << " (solver " << e.backend() << ")\n";
+    std::cerr << cli::option_error_line(e) << "\n";
     return 2;
   } catch (const InputError& e) {
     std::cerr << "tensegrity: " << e.what() << "\n";

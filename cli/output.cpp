@@ -9,6 +9,11 @@
 
 namespace tensegrity::cli {
 
+std::string option_error_line(const OptionError& e) {
+  return "tensegrity: command line: --option " + e.key() + (e.value().empty() ? "" : "=" + e.value()) + ": " +
+         e.reason() + " (solver " + e.backend() + ")";
+}
+
 std::string summary_line(const Structure& scene, std::string_view solver, const SolveResult& r) {
   char buf[512];
   std::snprintf(buf, sizeof buf,

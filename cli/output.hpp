@@ -5,10 +5,15 @@
 #include <string>
 #include <vector>
 
+#include "model/errors.hpp"
 #include "solvers/solver.hpp"
 #include "solvers/trace_csv.hpp"  // write_trace_csv, which the commands use with these
 
 namespace tensegrity::cli {
+
+// The one line the program prints for a bad backend option: the library names
+// the option, the command line names the flag that gave it.
+std::string option_error_line(const OptionError& e);
 
 // One-line human summary of a solve, for standard error.
 std::string summary_line(const Structure& scene, std::string_view solver, const SolveResult& r);

@@ -11,7 +11,8 @@
 //     Eq. 4 at fixed geometry is the physical problem, and any sign-correct
 //     equilibrium is a tensegrity whatever its force level. Eq. 5 alone needs a
 //     bound, since a geometry change can shrink by raising the prestress: the
-//     upper bound  mean cable force <= kappa W  (c^T sigma <= n_c kappa W).
+//     mean cable force is held at kappa W (c^T sigma = n_c kappa W), an
+//     equality because the upper bound made Ipopt wander (docs/THEORY-force-scale.md).
 //
 //   reference force  F0 = W when W > 0, otherwise 1 N (the unit of forces);
 //   sign margins     cable sigma >= margin, strut sigma <= -margin,
@@ -28,7 +29,7 @@ namespace tensegrity {
 
 // kappa: the default bound on the mean cable force under gravity, in units of
 // the part's weight (docs/THEORY-force-scale.md says how it was chosen).
-inline constexpr double kDefaultPrestressFactor = 1000.0;
+inline constexpr double kDefaultPrestressFactor = 1.0;
 
 struct ForceScale {
   double reference_force = 1.0;  // F0 (N)
@@ -42,12 +43,12 @@ struct ForceScale {
   Eigen::VectorXd normalisation_row;
   // Without gravity: c^T sigma = normalisation_target = n_c F0.
   double normalisation_target = 0.0;
-  // Under gravity: c^T sigma <= prestress_cap = kappa n_c W (Eq. 5 only).
+  // Under gravity: c^T sigma = prestress_cap = kappa n_c W (Eq. 5 only).
   double prestress_cap = std::numeric_limits<double>::infinity();
 
   // The equality c^T sigma = t applies (no load, and cables to normalise).
   bool has_normalisation() const { return num_cables > 0 && !load_sets_scale; }
-  // The upper bound c^T sigma <= prestress_cap applies (Eq. 5 under gravity).
+  // The row c^T sigma = prestress_cap applies (Eq. 5 under gravity).
   bool has_prestress_cap() const { return num_cables > 0 && load_sets_scale; }
   // Either of the two: Eq. 5 has a cable-sum row.
   bool has_cable_sum_row() const { return num_cables > 0; }

@@ -87,11 +87,10 @@ void MinimalGeometryChangeNlp::constraint_bounds(Eigen::VectorXd& lower, Eigen::
   lower = Eigen::VectorXd::Zero(num_constraints());
   upper = lower;
   if (scale_.has_normalisation()) lower[nq_] = upper[nq_] = scale_.normalisation_target;
-  // Under gravity only an upper bound: the load sets the force level.
-  if (scale_.has_prestress_cap()) {
-    lower[nq_] = -std::numeric_limits<double>::infinity();
-    upper[nq_] = scale_.prestress_cap;
-  }
+  // Under gravity the mean cable force is held at kappa times the weight: with
+  // only an upper bound, Ipopt wandered far from the scene on perturbed gravity
+  // prisms (docs/THEORY-force-scale.md), so Eq. 5 keeps the equality.
+  if (scale_.has_prestress_cap()) lower[nq_] = upper[nq_] = scale_.prestress_cap;
 }
 
 Eigen::VectorXd MinimalGeometryChangeNlp::initial_point(const Eigen::VectorXd& sigma0) const {

@@ -42,7 +42,7 @@ struct SolveOptions {
   double margin_fraction = 1e-3;  // sign margin as a fraction of F0 (formulations/force_scale.hpp)
   // kappa of Eq. 5 under gravity: mean cable force at most kappa times the
   // part's weight (formulations/force_scale.hpp, kDefaultPrestressFactor).
-  double prestress_factor = 1000.0;
+  double prestress_factor = 1.0;
   bool verbose = false;           // let the backend print its own log to stderr
   OptionPairs backend_options;    // parsed and validated by the backend
 

@@ -184,7 +184,9 @@ INSTANTIATE_TEST_SUITE_P(
                                  {{10151, Status::Stalled},
                                   {10152, Status::Stalled},
                                   {10154, Status::Stalled},
-                                  {12153, Status::MaxIterations}}},
+                                  {12153, Status::MaxIterations},
+                                  {12653, Status::MaxIterations},
+                                  {12654, Status::Stalled}}},
         StronglyPerturbedVariant{"alternating_gn", "alternating-gn", 2000, {}, {}}),
     [](const ::testing::TestParamInfo<StronglyPerturbedVariant>& info) { return std::string(info.param.name); });
 

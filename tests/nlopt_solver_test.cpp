@@ -62,7 +62,8 @@ TEST(NloptSolver, ReferenceScenesConvergeAndVerify) {
   for (const Structure& scene : reference_scenes()) {
     const SolveResult r = solve_scene(solver, scene, options_with());
     expect_verified_equilibrium(scene, r);
-    EXPECT_GT(r.stats.geometry_change, 0.0) << scene.name;
+    // Under gravity the load sets the force scale: a scene may already stand.
+    if (!scene.has_gravity()) EXPECT_GT(r.stats.geometry_change, 0.0) << scene.name;
     if (!scene.has_gravity()) {
       EXPECT_NEAR(mean_cable_force(scene, r.forces), 1.0, 1e-8) << scene.name;
     }

@@ -35,7 +35,8 @@ def test_serial_sweep_rows(serial):
     assert (serial["status"] == "converged").all(), serial[serial["status"] != "converged"]
     assert serial["verified"].all()
     assert (serial["relative_residual"] <= 1e-8).all()
-    noisy = serial["perturbation"] == "noise:0.01"
+    # Under gravity the load sets the force scale: a noisy scene may still stand.
+    noisy = (serial["perturbation"] == "noise:0.01") & ~serial["scene"].str.contains("gravity")
     assert (serial.loc[noisy, "geometry_change"] > 0).all()
     assert (serial["geometry_change"] >= 0).all()
     first = serial.iloc[0]

@@ -174,12 +174,8 @@ class ScaledProblem {
     Eigen::VectorXd lo, hi;
     nlp_.constraint_bounds(lo, hi);
     constraint_target_ = lo;
-    // Under gravity the cable-sum row is the upper bound c^T sigma <= cap: an
-    // equality on its hinge max(0, c^T sigma - cap) (zero gradient while below).
-    if (scale.has_prestress_cap()) {
-      cap_row_ = num_positions_;
-      constraint_target_[cap_row_] = hi[cap_row_];
-    }
+    // Under gravity the cable-sum row is the equality c^T sigma = cap of the
+    // Eq. 5 formulation (an equality, like the normalisation without gravity).
     nlp_.variable_bounds(lo, hi);
     lower_.resize(n_);
     upper_.resize(n_);

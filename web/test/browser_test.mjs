@@ -260,8 +260,8 @@ async function runTest(binary, screenshot) {
     const [sheet] = await Promise.all([page.waitForEvent('download'), page.click('[data-export="sheet"]')]);
     const csv = readFileSync(await sheet.path(), 'utf8').split('\n');
     const struts = (await view(page)).elements.filter((e) => e.kind === 'strut').length;
-    check(csv[0].startsWith('group_kind,group,element,kind') &&
-      csv.filter((l) => /^[a-z]+,[^,]*,\d+,strut,/.test(l)).length === struts,
+    check(csv[0].startsWith('group_kind,group,element,name,kind') &&
+      csv.filter((l) => /^[a-z]+,[^,]*,\d+,[^,]*,strut,/.test(l)).length === struts,
       `the fabrication sheet lists the ${struts} struts (${sheet.suggestedFilename()})`);
     const [png] = await Promise.all([page.waitForEvent('download'), page.click('[data-export="png"]')]);
     const bytes = readFileSync(await png.path());
