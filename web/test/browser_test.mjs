@@ -120,7 +120,10 @@ async function simulate(page, realTime) {
 }
 
 // Presses the mouse on `node`, moves it by (dx, dy) pixels, holds for `holdMs`.
-async function dragNode(page, node, dx, dy, holdMs) {
+// Longest hold of a drag that waits for the node to follow the mouse.
+const MAX_DRAG_HOLD_MS = 20000;
+
+async function dragNode(page, node, dx, dy, holdMs, startPosition = null, minMove = 0) {
   const at = await page.evaluate((i) => window.tensegrityApp.nodeScreenPosition(i), node);
   await page.mouse.move(at.x, at.y);
   await page.mouse.down();
@@ -132,6 +135,14 @@ async function dragNode(page, node, dx, dy, holdMs) {
   const [steps0, requests0] = await count();
   const t0 = Date.now();
   await page.waitForTimeout(holdMs);
+  // On a busy machine the simulation runs fewer steps per second: hold on
+  // (up to MAX_DRAG_HOLD_MS) until the node has followed the mouse.
+  if (minMove > 0) {
+    await page.waitForFunction(([i, p0, d]) => {
+      const p = window.tensegrityApp.state.view.positions[i];
+      return Math.hypot(p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]) > d;
+    }, [node, startPosition, minMove], { timeout: MAX_DRAG_HOLD_MS }).catch(() => {});
+  }
   const [steps1, requests1] = await count();
   const seconds = (Date.now() - t0) / 1000;
   const dragging = await page.evaluate(() => !!window.tensegrityApp.state.sim.drag);
@@ -241,15 +252,15 @@ async function runTest(binary, screenshot) {
     await simulate(page, true);
     const node = await topFreeNode(page);
     const start = (await view(page)).positions[node];
-    const drag = await dragNode(page, node, 120, -60, 1500);
-    check(drag.dragging, 'the mouse grabbed a node');
-    const end = (await view(page)).positions[node];
-    const moved = Math.hypot(end[0] - start[0], end[1] - start[1], end[2] - start[2]);
     const size = await page.evaluate(() => {
       const p = window.tensegrityApp.state.view.positions;
       const lo = [0, 1, 2].map((k) => Math.min(...p.map((q) => q[k]))), hi = [0, 1, 2].map((k) => Math.max(...p.map((q) => q[k])));
       return Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
     });
+    const drag = await dragNode(page, node, 120, -60, 1500, start, 0.05 * size);
+    check(drag.dragging, 'the mouse grabbed a node');
+    const end = (await view(page)).positions[node];
+    const moved = Math.hypot(end[0] - start[0], end[1] - start[1], end[2] - start[2]);
     check(moved > 0.05 * size, `dragging moved node ${node} by ${(1000 * moved).toFixed(1)} mm (structure ${(1000 * size).toFixed(0)} mm)`);
     const simText = await page.textContent('#sim-result');
     check(/steps\/s/.test(simText), `simulation shown: ${simText}`);
