@@ -246,9 +246,11 @@ TEST(AlternatingSolver, MarginOptionSetsTheSmallestCableForce) {
   };
   const auto solver = make_solver("alternating");
   const Case plain{"prism-6 at 30 % noise", perturbed(prism(6, 10.0, false), 0.3, 3)};
-  SolveOptions larger;
+  SolveOptions shared_margin;
+  shared_margin.time_limit_s = 900.0;  // thousands of outer iterations: minutes under the sanitizers
+  SolveOptions larger = shared_margin;
   larger.backend_options = {{"margin", "0.01"}};
-  const SolveResult shared = solve_scene(*solver, plain.scene, SolveOptions{});
+  const SolveResult shared = solve_scene(*solver, plain.scene, shared_margin);
   const SolveResult prestress = solve_scene(*solver, plain.scene, larger);
   expect_converged_and_verified(plain, shared, "alternating");
   expect_converged_and_verified(plain, prestress, "alternating margin=0.01");
@@ -258,7 +260,7 @@ TEST(AlternatingSolver, MarginOptionSetsTheSmallestCableForce) {
   EXPECT_GT(shared.stats.iterations, 2 * prestress.stats.iterations);
 
   const Case loaded{"gravity prism-7 at 15 % noise", perturbed(prism(7, 10.0, true), 0.15, 1)};
-  const SolveResult weighed = solve_scene(*solver, loaded.scene, SolveOptions{});
+  const SolveResult weighed = solve_scene(*solver, loaded.scene, shared_margin);
   expect_converged_and_verified(loaded, weighed, "alternating");
   EXPECT_NEAR(smallest_cable(loaded.scene, weighed), SolveOptions{}.margin_fraction, 1e-9);
 }
