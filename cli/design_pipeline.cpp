@@ -17,18 +17,11 @@
 #include "design/force_cap.hpp"
 #include "design/naive_sweep.hpp"
 #include "design/stiffness_solver.hpp"
+#include "model/json_text.hpp"
 
 namespace tensegrity::cli {
 
 namespace {
-
-std::string design_text(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
-
 
 // Scenes, characters (assembled on the fly) and earlier designs are accepted.
 Structure read_design_input_impl(const std::string& path) {
@@ -150,9 +143,9 @@ void check_design_request(const DesignRequest& req) {
   const bool naive = !std::isnan(req.naive_fraction);
   if (naive && (!std::isfinite(req.naive_fraction) || !(req.naive_fraction > 0.0) || req.naive_fraction > 1.0))
     throw InputError(req.options_source, "--naive-fraction",
-                     "must be a number in (0, 1], got " + design_text(req.naive_fraction));
+                     "must be a number in (0, 1], got " + message_number(req.naive_fraction));
   if (!std::isfinite(req.strain) || !(req.strain > -1.0))
-    throw InputError(req.options_source, "--strain", "must be a finite number > -1, got " + design_text(req.strain));
+    throw InputError(req.options_source, "--strain", "must be a finite number > -1, got " + message_number(req.strain));
 }
 
 DesignOutcome design_structure(const Structure& scene, const std::string& input, const DesignRequest& req,
@@ -213,8 +206,8 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
     const CableMaterial& mat = *materials_of[e];
     if (!naive && !mat.in_range(target_strain[e]))
       throw InputError(item == "--strain" ? req.options_source : input, item,
-                       "strain " + design_text(target_strain[e]) + " is outside the measured range [" + design_text(mat.strain_min) +
-                           ", " + design_text(mat.strain_max) + "] of material '" + mat.name + "'");
+                       "strain " + message_number(target_strain[e]) + " is outside the measured range [" + message_number(mat.strain_min) +
+                           ", " + message_number(mat.strain_max) + "] of material '" + mat.name + "'");
     if (!naive) targets[e] = mat.force(target_strain[e]);
   }
   // The baseline's one strain must be inside every material before any work.
@@ -285,7 +278,7 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
                             {"polished", qr.polished},
                             {"seconds", qr.seconds}};
     std::cerr << "design: stiffness QP " << to_string(qr.status) << ": " << qr.message << ", relative residual "
-              << design_text(qr.relative_residual) << ", max |sigma - target| " << design_text(qr.max_target_deviation) << " N, "
+              << message_number(qr.relative_residual) << ", max |sigma - target| " << message_number(qr.max_target_deviation) << " N, "
               << qr.active_bounds << " bounds active\n";
     if (qr.status != Status::Converged)
       return fail("", stiffness_failure_reason(d, problem, qr, fs.margin));
@@ -311,7 +304,7 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
   const Verification v = verify(d.structure, d.structure.positions, forces, options.tolerance);
   if (!v.ok)
     return fail("verification",
-                     "the designed forces do not verify (relative residual " + design_text(v.relative_residual) +
+                     "the designed forces do not verify (relative residual " + message_number(v.relative_residual) +
                          (v.problems.empty() ? std::string() : ", " + v.problems.front()) + ")");
   d.solution.scene = scene.name;
   d.solution.solver = form_solver;

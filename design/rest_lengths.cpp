@@ -6,17 +6,11 @@
 #include <sstream>
 
 #include "model/errors.hpp"
+#include "model/json_text.hpp"
 
 namespace tensegrity {
 
 namespace {
-
-std::string number_text(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
 
 double element_length(const Eigen::Matrix3Xd& x, const Element& e) { return (x.col(e.b) - x.col(e.a)).norm(); }
 
@@ -90,10 +84,10 @@ RestLengthDesign compute_rest_lengths(const Structure& s, const Eigen::Matrix3Xd
     if (ss.status != StrainSolveStatus::Ok) {
       d.out_of_range.push_back(e);
       if (d.message.empty())
-        d.message = "cable " + std::to_string(e) + ": force " + number_text(forces[e]) + " N is beyond material '" +
-                    mat->name + "' (measured forces " + number_text(mat->force_min()) + " .. " +
-                    number_text(mat->force_max()) + " N over strains " + number_text(mat->strain_min) + " .. " +
-                    number_text(mat->strain_max) + ")";
+        d.message = "cable " + std::to_string(e) + ": force " + message_number(forces[e]) + " N is beyond material '" +
+                    mat->name + "' (measured forces " + message_number(mat->force_min()) + " .. " +
+                    message_number(mat->force_max()) + " N over strains " + message_number(mat->strain_min) + " .. " +
+                    message_number(mat->strain_max) + ")";
       continue;
     }
     d.strains[e] = ss.strain;
@@ -111,7 +105,7 @@ RestLengthDesign naive_rest_lengths(const Structure& s, const Eigen::Matrix3Xd& 
   d.rest_lengths.resize(m);
   d.strains = Eigen::VectorXd::Zero(m);
   if (!(fraction > 0.0) || !std::isfinite(fraction)) {
-    d.message = "the rest-length fraction must be a finite number > 0, got " + number_text(fraction);
+    d.message = "the rest-length fraction must be a finite number > 0, got " + message_number(fraction);
     return d;
   }
   const double strain = 1.0 / fraction - 1.0;
@@ -126,9 +120,9 @@ RestLengthDesign naive_rest_lengths(const Structure& s, const Eigen::Matrix3Xd& 
     if (mat && !mat->in_range(strain)) {
       d.out_of_range.push_back(e);
       if (d.message.empty())
-        d.message = "fraction " + number_text(fraction) + " gives strain " + number_text(strain) +
-                    ", outside the measured range [" + number_text(mat->strain_min) + ", " +
-                    number_text(mat->strain_max) + "] of material '" + mat->name + "'";
+        d.message = "fraction " + message_number(fraction) + " gives strain " + message_number(strain) +
+                    ", outside the measured range [" + message_number(mat->strain_min) + ", " +
+                    message_number(mat->strain_max) + "] of material '" + mat->name + "'";
     }
   }
   d.ok = d.out_of_range.empty();

@@ -1,5 +1,7 @@
 #include "model/json_text.hpp"
 
+#include <sstream>
+
 #include <algorithm>
 #include <array>
 #include <string_view>
@@ -101,6 +103,13 @@ std::string to_json_text(const nlohmann::json& j) {
   write_block(j, 0, out);
   out += '\n';
   return out;
+}
+
+std::string message_number(double v) {
+  std::ostringstream s;
+  s.precision(6);
+  s << v;
+  return s.str();
 }
 
 }  // namespace tensegrity

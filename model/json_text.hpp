@@ -9,4 +9,7 @@ namespace tensegrity {
 
 std::string to_json_text(const nlohmann::json& j);
 
+// A number in at most 6 significant digits, for messages.
+std::string message_number(double v);
+
 }  // namespace tensegrity

@@ -25,13 +25,6 @@ using nlohmann::json;
 
 namespace {
 
-std::string number_text(double v) {
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
-
 double horner(const std::vector<double>& a, double t) {
   double v = 0.0;
   for (auto it = a.rbegin(); it != a.rend(); ++it) v = v * t + *it;
@@ -60,8 +53,8 @@ double CableMaterial::slope_unchecked(double eps) const {
 
 double CableMaterial::force(double eps) const {
   if (!std::isfinite(eps) || !in_range(eps))
-    throw InputError(name, "strain " + number_text(eps),
-                     "outside the measured range [" + number_text(strain_min) + ", " + number_text(strain_max) +
+    throw InputError(name, "strain " + message_number(eps),
+                     "outside the measured range [" + message_number(strain_min) + ", " + message_number(strain_max) +
                          "] of the material (no extrapolation)");
   return force_unchecked(eps);
 }
@@ -105,8 +98,8 @@ std::optional<std::string> monotonicity_problem(const CableMaterial& m) {
   const std::vector<double> df = derivative(f);
   const std::vector<double> ddf = derivative(df);
   for (double r : real_polynomial_roots(df, a, b))
-    return "F'(eps) = 0 at eps = " + number_text(r) + ": the force-strain curve is not strictly increasing on [" +
-           number_text(a) + ", " + number_text(b) + "]";
+    return "F'(eps) = 0 at eps = " + message_number(r) + ": the force-strain curve is not strictly increasing on [" +
+           message_number(a) + ", " + message_number(b) + "]";
   std::vector<double> probes = real_polynomial_roots(ddf, a, b);
   constexpr int kGrid = 2000;
   for (int i = 0; i <= kGrid; ++i) probes.push_back(a + (b - a) * i / kGrid);
@@ -116,8 +109,8 @@ std::optional<std::string> monotonicity_problem(const CableMaterial& m) {
     if (!(s >= worst)) worst = s, where = t;
   }
   if (!(worst > 0.0))
-    return "F'(eps) = " + number_text(worst) + " N at eps = " + number_text(where) +
-           ": the force-strain curve is not strictly increasing on [" + number_text(a) + ", " + number_text(b) + "]";
+    return "F'(eps) = " + message_number(worst) + " N at eps = " + message_number(where) +
+           ": the force-strain curve is not strictly increasing on [" + message_number(a) + ", " + message_number(b) + "]";
   return std::nullopt;
 }
 
