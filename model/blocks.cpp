@@ -379,15 +379,27 @@ bool find_signed_self_stress(const Structure& s, Eigen::VectorXd* forces) {
   for (int e = 0; e < m; ++e) sign[e] = s.elements[e].kind == ElementKind::Cable ? 1.0 : -1.0;
   constexpr int kMaxSweeps = 5000;
   constexpr double kAcceptedMargin = 0.5;  // of the box's margin 1
-  Eigen::VectorXd sigma = N * (N.transpose() * sign);
+  constexpr double kStalledStep = 1e-10;   // relative change of a sweep at a fixed point
+  // The projections run thousands of times per candidate tie: buffers are
+  // allocated once so the loop itself does not allocate.
+  Eigen::VectorXd coefficients = N.transpose() * sign;
+  Eigen::VectorXd sigma = N * coefficients;
+  Eigen::VectorXd signed_sigma(m), boxed(m);
   for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
-    const Eigen::VectorXd signed_sigma = sigma.cwiseProduct(sign);
-    if (signed_sigma.minCoeff() >= kAcceptedMargin) {
-      *forces = sigma / signed_sigma.minCoeff();
+    signed_sigma = sigma.cwiseProduct(sign);
+    const double margin = signed_sigma.minCoeff();
+    if (margin >= kAcceptedMargin) {
+      *forces = sigma / margin;
       return true;
     }
-    const Eigen::VectorXd boxed = signed_sigma.cwiseMax(1.0).cwiseProduct(sign);
-    sigma = N * (N.transpose() * boxed);
+    boxed = signed_sigma.cwiseMax(1.0).cwiseProduct(sign);
+    coefficients.noalias() = N.transpose() * boxed;
+    // Projections onto two convex sets converge; once they no longer move, the
+    // sets do not meet within reach and further sweeps cannot find a margin.
+    boxed.noalias() = N * coefficients;
+    const double step = (boxed - sigma).norm();
+    sigma.swap(boxed);
+    if (step <= kStalledStep * sigma.norm()) return false;
   }
   return false;
 }
