@@ -147,12 +147,10 @@ ForceCapResult smallest_force_cap(const Structure& s, const Eigen::Matrix3Xd& po
   settings.set("jac_d_constant", "yes");
   settings.set("mu_strategy", "adaptive");
   const IpoptSolveResult run = solve_with_ipopt(lp, settings);
-  if (!run.has_solution) {
-    r.message = "Ipopt returned no point (" + run.message + ")";
-    return r;
+  if (run.has_solution) {
+    r.sigma = lp.y.head(m) * scale;
+    r.ratio = lp.y[m];
   }
-  r.sigma = lp.y.head(m) * scale;
-  r.ratio = lp.y[m];
   if (run.status != Status::Converged) {
     r.status = run.status;
     r.message = r.status == Status::Infeasible

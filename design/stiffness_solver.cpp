@@ -184,8 +184,7 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
   const IpoptSolveResult run = solve_with_ipopt(qp, settings);
   r.iterations = run.iterations;
   if (!run.has_solution) {
-    // Only Ipopt's proof of infeasibility says more than "no point".
-    r.status = run.status == Status::Infeasible ? Status::Infeasible : Status::NumericalError;
+    r.status = run.status;
     r.message = "Ipopt returned no point (" + run.message + ")";
     return r;
   }

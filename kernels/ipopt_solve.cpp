@@ -234,6 +234,10 @@ IpoptSolveResult solve_with_ipopt(SparseNlp& problem, const IpoptSettings& setti
     result.iterations = tnlp->last_iteration();
     if (Ipopt::IsValid(app->Statistics())) result.iterations = app->Statistics()->IterationCount();
     result.has_solution = tnlp->has_solution();
+    if (result.status == Status::Converged && !result.has_solution) {
+      result.status = Status::NumericalError;
+      result.message = "Ipopt reported success without a final point";
+    }
   } catch (const std::exception& ex) {
     result.message = std::string("Ipopt: ") + ex.what();
   } catch (...) {

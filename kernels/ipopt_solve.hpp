@@ -77,7 +77,7 @@ struct IpoptSolveResult {
   std::string message;
   int return_code = -199;  // Ipopt's ApplicationReturnStatus (Internal_Error when Ipopt did not run)
   int iterations = 0;
-  bool has_solution = false;  // SparseNlp::finalize was called
+  bool has_solution = false;  // SparseNlp::finalize was called (always so when Converged)
 };
 
 // Minimizes `problem` from its starting point; the final point reaches the
