@@ -14,7 +14,7 @@
 // t* times its material's maximum. The "tightest" cables are those whose cap
 // constraint carries the largest multipliers at the optimum (the multipliers
 // sum to 1: the share of the bottleneck each cable is responsible for).
-// Solved by Ipopt (kept private to the solvers library).
+// Solved by Ipopt through the one adapter, kernels/ipopt_solve.hpp.
 #include <Eigen/Core>
 #include <string>
 #include <vector>

@@ -1,8 +1,5 @@
 #include "design/stiffness_solver.hpp"
 
-#include <coin/IpIpoptApplication.hpp>
-#include <coin/IpTNLP.hpp>
-
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -12,24 +9,22 @@
 #include <vector>
 
 #include "formulations/equilibrium.hpp"
-#include "kernels/ipopt_run.hpp"
+#include "kernels/ipopt_solve.hpp"
+#include "kernels/sparse_nlp.hpp"
 #include "model/verify.hpp"
 
 namespace tensegrity {
 namespace {
 
-using Ipopt::Index;
-using Ipopt::Number;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
-constexpr double kIpoptInfinity = 1e19;  // Ipopt's default nlp_{lower,upper}_bound_inf
-
-// The QP in forces scaled by S: y = sigma / S, objective / S^2.
-class StiffnessTnlp : public Ipopt::TNLP {
+// The QP in forces scaled by S: y = sigma / S, objective / S^2. Convex.
+class StiffnessQpNlp final : public SparseNlp {
  public:
   // `rows`: a maximal independent set of equilibrium rows (Ipopt needs a
   // full-rank constraint Jacobian and no more equalities than unknowns).
-  StiffnessTnlp(const Equilibrium& eq, const StiffnessProblem& p, double scale, const Eigen::VectorXd& y0,
-                std::vector<int> rows)
+  StiffnessQpNlp(const Equilibrium& eq, const StiffnessProblem& p, double scale, const Eigen::VectorXd& y0,
+                 std::vector<int> rows)
       : p_(p), scale_(scale), y0_(y0), rows_(std::move(rows)) {
     const Eigen::SparseMatrix<double>& A = eq.A();
     m_ = static_cast<int>(A.cols());
@@ -38,89 +33,64 @@ class StiffnessTnlp : public Ipopt::TNLP {
     for (int c = 0; c < A.outerSize(); ++c)
       for (Eigen::SparseMatrix<double>::InnerIterator it(A, c); it; ++it)
         if (it.value() != 0.0 && kept[it.row()] >= 0) {
-          jac_row_.push_back(kept[it.row()]);
-          jac_col_.push_back(c);
+          jacobian_.add(kept[it.row()], c);
           jac_val_.push_back(it.value());
         }
     rhs_.resize(rows_.size());
     for (std::size_t i = 0; i < rows_.size(); ++i)
       rhs_[i] = eq.has_gravity() ? -eq.gravity_load()[rows_[i]] / scale_ : 0.0;
     for (int e = 0; e < m_; ++e)
-      if (p_.weight[e] > 0.0) hess_.push_back(e);
+      if (p_.weight[e] > 0.0) hessian_.add(e, e);
   }
 
-  bool get_nlp_info(Index& n, Index& m, Index& nnz_jac, Index& nnz_h, IndexStyleEnum& style) override {
-    n = m_;
-    m = static_cast<Index>(rows_.size());
-    nnz_jac = static_cast<Index>(jac_val_.size());
-    nnz_h = static_cast<Index>(hess_.size());
-    style = C_STYLE;
-    return true;
-  }
-  bool get_bounds_info(Index n, Number* xl, Number* xu, Index m, Number* gl, Number* gu) override {
-    for (Index e = 0; e < n; ++e) {
-      xl[e] = std::isfinite(p_.lower[e]) ? p_.lower[e] / scale_ : -kIpoptInfinity;
-      xu[e] = std::isfinite(p_.upper[e]) ? p_.upper[e] / scale_ : kIpoptInfinity;
+  int num_variables() const override { return m_; }
+  int num_constraints() const override { return static_cast<int>(rows_.size()); }
+  void variable_bounds(Vector xl, Vector xu) const override {
+    for (int e = 0; e < m_; ++e) {
+      xl[e] = std::isfinite(p_.lower[e]) ? p_.lower[e] / scale_ : -kInfinity;
+      xu[e] = std::isfinite(p_.upper[e]) ? p_.upper[e] / scale_ : kInfinity;
     }
-    for (Index i = 0; i < m; ++i) gl[i] = gu[i] = rhs_[i];
-    return true;
   }
-  bool get_starting_point(Index n, bool init_x, Number* x, bool init_z, Number*, Number*, Index, bool init_lambda,
-                          Number*) override {
-    if (init_z || init_lambda) return false;
-    if (init_x)
-      for (Index e = 0; e < n; ++e) x[e] = y0_[e];
-    return true;
+  void constraint_bounds(Vector gl, Vector gu) const override {
+    for (std::size_t i = 0; i < rhs_.size(); ++i) gl[i] = gu[i] = rhs_[i];
   }
-  bool eval_f(Index n, const Number* x, bool, Number& f) override {
+  void starting_point(Vector x) const override { x = y0_; }
+  bool objective(const ConstVector& x, double& f) override {
     f = 0.0;
-    for (Index e = 0; e < n; ++e) {
+    for (int e = 0; e < m_; ++e) {
       const double d = x[e] - p_.target[e] / scale_;
       if (p_.weight[e] > 0.0) f += 0.5 * p_.weight[e] * d * d;
     }
     return true;
   }
-  bool eval_grad_f(Index n, const Number* x, bool, Number* g) override {
-    for (Index e = 0; e < n; ++e) g[e] = p_.weight[e] > 0.0 ? p_.weight[e] * (x[e] - p_.target[e] / scale_) : 0.0;
+  bool gradient(const ConstVector& x, Vector g) override {
+    for (int e = 0; e < m_; ++e) g[e] = p_.weight[e] > 0.0 ? p_.weight[e] * (x[e] - p_.target[e] / scale_) : 0.0;
     return true;
   }
-  bool eval_g(Index, const Number* x, bool, Index m, Number* g) override {
-    std::fill(g, g + m, 0.0);
-    for (std::size_t k = 0; k < jac_val_.size(); ++k) g[jac_row_[k]] += jac_val_[k] * x[jac_col_[k]];
+  bool constraints(const ConstVector& x, Vector g) override {
+    g.setZero();
+    for (std::size_t k = 0; k < jac_val_.size(); ++k) g[jacobian_.rows[k]] += jac_val_[k] * x[jacobian_.cols[k]];
     return true;
   }
-  bool eval_jac_g(Index, const Number*, bool, Index, Index, Index* iRow, Index* jCol, Number* values) override {
-    if (!values) {
-      for (std::size_t k = 0; k < jac_val_.size(); ++k) {
-        iRow[k] = jac_row_[k];
-        jCol[k] = jac_col_[k];
-      }
-    } else {
-      std::copy(jac_val_.begin(), jac_val_.end(), values);
-    }
+  bool jacobian_values(const ConstVector&, Vector values) override {
+    std::copy(jac_val_.begin(), jac_val_.end(), values.data());
     return true;
   }
-  bool eval_h(Index, const Number*, bool, Number obj_factor, Index, const Number*, bool, Index, Index* iRow,
-              Index* jCol, Number* values) override {
-    if (!values) {
-      for (std::size_t k = 0; k < hess_.size(); ++k) iRow[k] = jCol[k] = hess_[k];
-    } else {
-      for (std::size_t k = 0; k < hess_.size(); ++k) values[k] = obj_factor * p_.weight[hess_[k]];
-    }
+  bool hessian_values(const ConstVector&, double obj_factor, const ConstVector&, Vector values) override {
+    for (int k = 0; k < hessian_.size(); ++k) values[k] = obj_factor * p_.weight[hessian_.rows[k]];
     return true;
   }
-  void finalize_solution(Ipopt::SolverReturn status, Index n, const Number* x, const Number* z_L, const Number* z_U,
-                         Index m, const Number*, const Number* lambda, Number, const Ipopt::IpoptData*,
-                         Ipopt::IpoptCalculatedQuantities*) override {
-    status_ = status;
-    y = Eigen::Map<const Eigen::VectorXd>(x, n);
-    zl = Eigen::Map<const Eigen::VectorXd>(z_L, n);
-    zu = Eigen::Map<const Eigen::VectorXd>(z_U, n);
-    lambda_rows = Eigen::Map<const Eigen::VectorXd>(lambda, m);
+  SparsityPattern jacobian_structure() const override { return jacobian_; }
+  SparsityPattern hessian_structure() const override { return hessian_; }
+  bool is_convex() const override { return true; }
+  void finalize(const NlpSolution& solution) override {
+    y = solution.x;
+    zl = solution.lower_bound_multipliers;
+    zu = solution.upper_bound_multipliers;
+    lambda_rows = solution.constraint_multipliers;
   }
 
   const std::vector<int>& rows() const { return rows_; }
-  Ipopt::SolverReturn status() const { return status_; }
   Eigen::VectorXd y, zl, zu, lambda_rows;
 
  private:
@@ -129,11 +99,9 @@ class StiffnessTnlp : public Ipopt::TNLP {
   Eigen::VectorXd y0_;
   int m_ = 0;
   std::vector<int> rows_;
-  std::vector<Index> jac_row_, jac_col_;
+  SparsityPattern jacobian_, hessian_;
   std::vector<double> jac_val_;
-  std::vector<int> hess_;
   std::vector<double> rhs_;
-  Ipopt::SolverReturn status_ = Ipopt::INTERNAL_ERROR;
 };
 
 double bound_violation(const StiffnessProblem& p, const Eigen::VectorXd& sigma) {
@@ -195,42 +163,37 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
       }
     }
   }
-  Ipopt::SmartPtr<StiffnessTnlp> nlp = new StiffnessTnlp(eq, problem, scale, y0, rows);
+  StiffnessQpNlp qp(eq, problem, scale, y0, rows);
 
-  const IpoptRun run = run_ipopt(GetRawPtr(nlp), [&](Ipopt::OptionsList& o) {
-    o.SetIntegerValue("print_level", options.verbose ? 5 : 0);
-    o.SetNumericValue("tol", 1e-12);
-    o.SetNumericValue("constr_viol_tol", 1e-12);
-    o.SetIntegerValue("max_iter", options.max_iterations);
-    // Degenerate problems (many ties at a bound) may end "acceptable": keep
-    // that level strict on equilibrium.
-    o.SetNumericValue("acceptable_tol", 1e-9);
-    // Relaxed bounds would be projected back at the end, breaking equilibrium.
-    o.SetNumericValue("bound_relax_factor", 0.0);
-    o.SetNumericValue("acceptable_constr_viol_tol", 1e-11);
-    o.SetStringValue("hessian_constant", "yes");
-    o.SetStringValue("jac_c_constant", "yes");
-    o.SetStringValue("jac_d_constant", "yes");
-    o.SetStringValue("mu_strategy", "adaptive");
-    o.SetStringValue("nlp_scaling_method", "none");
-  });
+  IpoptSettings settings;
+  settings.verbose = options.verbose;
+  settings.set("tol", 1e-12);
+  settings.set("constr_viol_tol", 1e-12);
+  settings.set("max_iter", options.max_iterations);
+  // Degenerate problems (many ties at a bound) may end "acceptable": keep
+  // that level strict on equilibrium.
+  settings.set("acceptable_tol", 1e-9);
+  // Relaxed bounds would be projected back at the end, breaking equilibrium.
+  settings.set("bound_relax_factor", 0.0);
+  settings.set("acceptable_constr_viol_tol", 1e-11);
+  settings.set("hessian_constant", "yes");
+  settings.set("jac_c_constant", "yes");
+  settings.set("jac_d_constant", "yes");
+  settings.set("mu_strategy", "adaptive");
+  settings.set("nlp_scaling_method", "none");
+  const IpoptSolveResult run = solve_with_ipopt(qp, settings);
   r.iterations = run.iterations;
-  if (!run.error.empty()) {
-    r.message = run.error;
-    return r;
-  }
-  const Ipopt::ApplicationReturnStatus status = run.status;
-  if (nlp->y.size() != m) {
-    r.message = "Ipopt returned no point (status " + std::to_string(static_cast<int>(status)) + ")";
-    r.status = status == Ipopt::Infeasible_Problem_Detected ? Status::Infeasible : Status::NumericalError;
+  if (!run.has_solution) {
+    r.status = run.status;
+    r.message = "Ipopt returned no point (" + run.message + ")";
     return r;
   }
 
-  r.sigma = nlp->y * scale;
-  r.bound_multipliers = (nlp->zl - nlp->zu) * scale;
+  r.sigma = qp.y * scale;
+  r.bound_multipliers = (qp.zl - qp.zu) * scale;
   r.lambda = Eigen::VectorXd::Zero(eq.num_equations());
-  for (std::size_t i = 0; i < nlp->rows().size(); ++i) r.lambda[nlp->rows()[i]] = nlp->lambda_rows[i] * scale;
-  const bool ipopt_ok = status == Ipopt::Solve_Succeeded || status == Ipopt::Solved_To_Acceptable_Level;
+  for (std::size_t i = 0; i < qp.rows().size(); ++i) r.lambda[qp.rows()[i]] = qp.lambda_rows[i] * scale;
+  const bool ipopt_ok = run.status == Status::Converged;
 
   if (ipopt_ok && options.polish) {
     // Active set from Ipopt's complementarity: a bound is active when its
@@ -238,8 +201,8 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
     // (free a bound with a wrong-signed multiplier, fix a violated one).
     ActiveSet active(m, 0);
     for (int e = 0; e < m; ++e) {
-      if (std::isfinite(problem.lower[e]) && nlp->zl[e] > nlp->y[e] - problem.lower[e] / scale) active[e] = -1;
-      if (std::isfinite(problem.upper[e]) && nlp->zu[e] > problem.upper[e] / scale - nlp->y[e]) active[e] = 1;
+      if (std::isfinite(problem.lower[e]) && qp.zl[e] > qp.y[e] - problem.lower[e] / scale) active[e] = -1;
+      if (std::isfinite(problem.upper[e]) && qp.zu[e] > problem.upper[e] / scale - qp.y[e]) active[e] = 1;
     }
     const double objective_ipopt = stiffness_objective(problem, r.sigma);
     const double sign_tolerance = 1e-9 * scale;
@@ -253,7 +216,7 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
         // was least sure about (smallest multiplier).
         int weakest = -1;
         for (int e = 0; e < m; ++e)
-          if (active[e] != 0 && (weakest < 0 || nlp->zl[e] + nlp->zu[e] < nlp->zl[weakest] + nlp->zu[weakest]))
+          if (active[e] != 0 && (weakest < 0 || qp.zl[e] + qp.zu[e] < qp.zl[weakest] + qp.zu[weakest]))
             weakest = e;
         if (weakest < 0) break;
         active[weakest] = 0;
@@ -293,15 +256,10 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
   r.relative_residual = v.relative_residual;
   const double violation = bound_violation(problem, r.sigma);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (status == Ipopt::Infeasible_Problem_Detected) {
-    r.status = Status::Infeasible;
-    r.message = "no forces satisfy equilibrium within the bounds at this geometry";
-  } else if (status == Ipopt::Maximum_Iterations_Exceeded) {
-    r.status = Status::MaxIterations;
-    r.message = "Ipopt iteration budget ran out";
-  } else if (!ipopt_ok) {
-    r.status = Status::NumericalError;
-    r.message = "Ipopt returned status " + std::to_string(static_cast<int>(status));
+  if (!ipopt_ok) {
+    r.status = run.status;
+    r.message = r.status == Status::Infeasible ? "no forces satisfy equilibrium within the bounds at this geometry"
+                                               : run.message;
   } else if (!v.ok || violation > 1e-9 * scale) {
     r.status = Status::NumericalError;
     r.message = "the QP solution does not verify (relative residual " + std::to_string(v.relative_residual) +

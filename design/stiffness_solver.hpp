@@ -4,7 +4,7 @@
 // ends on are held fixed and the remaining equality-constrained QP is solved
 // exactly, which puts the equilibrium residual at round-off. The polished
 // point is kept only when it satisfies every bound and the multiplier signs.
-// Ipopt stays private to the solvers library.
+// Ipopt runs through the one adapter, kernels/ipopt_solve.hpp.
 #include <Eigen/Core>
 #include <string>
 
@@ -18,7 +18,7 @@ struct StiffnessOptions {
   double tolerance = 1e-10;     // relative equilibrium residual (model/verify) for Converged
   int max_iterations = 3000;    // Ipopt iterations
   bool polish = true;
-  bool verbose = false;         // Ipopt's own log on stdout
+  bool verbose = false;         // Ipopt's own log on stderr
 };
 
 struct StiffnessResult {
@@ -40,7 +40,8 @@ struct StiffnessResult {
 // Solves at the given geometry (3 x n; fixed nodes at their scene positions).
 // `start` (m forces, e.g. the form-finding result) is optional. Never throws on
 // solver failure: Infeasible when Ipopt proves the constraints inconsistent
-// (or a free node with weight has no element), NumericalError otherwise.
+// (or a free node with weight has no element), MaxIterations when Ipopt's
+// iteration budget runs out, NumericalError otherwise.
 StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& positions,
                                    const StiffnessProblem& problem, const StiffnessOptions& options = {},
                                    const Eigen::VectorXd* start = nullptr);

@@ -8,6 +8,10 @@
 Inside solvers/, the interface and driver (solvers/*.hpp, *.cpp) never include a
 backend (solvers/NAME/), and no backend includes another backend.
 
+Ipopt's headers (<coin/...>) stay private: only source files (.cpp) of kernels/
+(the one Ipopt adapter) and solvers/ipopt/ (its option registry) include them,
+and tests.
+
 Usage: include_direction_test.py SOURCE_DIR      check the project
        include_direction_test.py --self-test     check the checker on a made-up tree
 """
@@ -33,6 +37,8 @@ ALLOWED = {
     "tests": {"tests", *LIBRARIES, "cli"},
 }
 INCLUDE = re.compile(r'^\s*#\s*include\s*"([^"]+)"', re.M)
+IPOPT_INCLUDE = re.compile(r'^\s*#\s*include\s*<coin/([^>]+)>', re.M)
+IPOPT_USERS = ("kernels/", "solvers/ipopt/")
 SOURCE_SUFFIXES = (".hpp", ".cpp", ".h", ".cc")
 
 
@@ -58,6 +64,10 @@ def violations(root):
                 parts = rel.split(os.sep)
                 with open(path, encoding="utf-8", errors="replace") as f:
                     text = f.read()
+                if folder != "tests" and IPOPT_INCLUDE.search(text):
+                    if not (rel.endswith(".cpp") and rel.startswith(IPOPT_USERS)):
+                        found.append(f"{rel}: includes an Ipopt header (only .cpp files of "
+                                     f"{' and '.join(IPOPT_USERS)} may)")
                 for target in INCLUDE.findall(text):
                     target_parts = target.split("/")
                     if len(target_parts) < 2:
@@ -85,6 +95,10 @@ def self_test():
         "solvers/nlopt/d.cpp": '#include "solvers/ipopt/ipopt_solver.hpp"\n',  # backend -> backend
         "kernels/e.cpp": '#include "formulations/equilibrium.hpp"\n',       # allowed
         "design/f.cpp": '#include "bench/x.hpp"\n',                         # into bench/
+        "design/g.cpp": '#include <coin/IpTNLP.hpp>\n',                     # Ipopt outside its adapter
+        "kernels/h.hpp": '#include <coin/IpTNLP.hpp>\n',                    # Ipopt in a header
+        "kernels/i.cpp": '#include <coin/IpTNLP.hpp>\n',                    # allowed
+        "tests/j.cpp": '#include <coin/IpReturnCodes.hpp>\n',               # allowed
     }
     with tempfile.TemporaryDirectory() as root:
         for rel, text in cases.items():
@@ -92,12 +106,13 @@ def self_test():
             with open(os.path.join(root, rel), "w") as f:
                 f.write(text)
         found = violations(root)
-    expected_files = {"model/a.hpp", "cli/b.cpp", "solvers/c.cpp", "solvers/nlopt/d.cpp", "design/f.cpp"}
+    expected_files = {"model/a.hpp", "cli/b.cpp", "solvers/c.cpp", "solvers/nlopt/d.cpp", "design/f.cpp",
+                      "design/g.cpp", "kernels/h.hpp"}
     reported = {line.split(":")[0] for line in found}
     if reported != expected_files:
         print("self-test failed: reported", sorted(reported), "expected", sorted(expected_files))
         return 1
-    print(f"self-test: {len(found)} of {len(found)} planted violations found, the allowed include passed")
+    print(f"self-test: {len(found)} of {len(found)} planted violations found, the allowed includes passed")
     return 0
 
 

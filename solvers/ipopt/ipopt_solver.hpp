@@ -1,7 +1,7 @@
 #pragma once
 // The `ipopt` backend: Eq. 5 (formulations/minimal_geometry_change_nlp.hpp)
-// solved whole by Ipopt's interior-point method with MUMPS. No Ipopt header is
-// included here; the TNLP adapter lives in ipopt_solver.cpp.
+// solved whole by Ipopt's interior-point method with MUMPS, through the one
+// Ipopt adapter (kernels/ipopt_solve.hpp). No Ipopt header is included here.
 //
 // Ipopt sees a dimensionless problem: y = ((q - q0) / L, sigma / F0), equality
 // rows f / F0 and c^T sigma / F0 (L = mean element length, F0 the ForceScale
@@ -25,7 +25,9 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
+#include "kernels/ipopt_solve.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {
@@ -34,6 +36,7 @@ namespace tensegrity {
 // Ipopt's own registry (name, type and range).
 struct IpoptOptions {
   OptionPairs native;
+  std::vector<IpoptOption> typed;  // `native` with the types of Ipopt's registry
   static IpoptOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
 };
