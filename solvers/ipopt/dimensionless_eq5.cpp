@@ -37,6 +37,11 @@ DimensionlessEq5::DimensionlessEq5(MinimalGeometryChangeNlp& nlp, const Eigen::V
   z_final_ = z_;
 }
 
+void DimensionlessEq5::set_start(const Eigen::VectorXd& q, const Eigen::VectorXd& sigma) {
+  y0_.head(nq_) = (q - q0_) / length_;
+  y0_.tail(m_) = sigma / force_;
+}
+
 void DimensionlessEq5::variable_bounds(Vector lower, Vector upper) const {
   Eigen::VectorXd z_lower, z_upper;
   nlp_.variable_bounds(z_lower, z_upper);

@@ -22,6 +22,9 @@ class DimensionlessEq5 final : public SparseNlp {
  public:
   // Starts at the scene geometry with forces sigma0 (N).
   DimensionlessEq5(MinimalGeometryChangeNlp& nlp, const Eigen::VectorXd& sigma0);
+  // Starts instead at free coordinates q (m) and forces sigma (N); the
+  // objective still measures the change from the scene geometry.
+  void set_start(const Eigen::VectorXd& q, const Eigen::VectorXd& sigma);
 
   int num_variables() const override { return n_; }
   int num_constraints() const override { return ncon_; }

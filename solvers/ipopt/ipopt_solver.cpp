@@ -34,6 +34,26 @@ double max_free_node_weight(const Structure& s) {
   return worst;
 }
 
+// The project's own key among the native Ipopt options.
+constexpr const char* kStartKey = "start";
+// The MUMPS ordering for Eq. 5's KKT matrix: 6 = QAMD, which detects the
+// quasi-dense force-scale row (the default automatic choice does not, and its
+// factorizations then grow with the square of the structure's size).
+constexpr int kQuasiDenseOrdering = 6;
+
+// The equilibrium alternating-gn reaches from the part's geometry, or an
+// empty result when it does not converge within the same settings.
+SolveResult equilibrium_start(const Structure& part, const SolveOptions& options) {
+  SolveOptions start_options = options;
+  start_options.backend_options.clear();
+  start_options.verbose = false;
+  DriverControls controls;
+  controls.skip_if_in_equilibrium = false;  // the driver has checked the part already
+  SolveResult start = make_solver("alternating-gn")->Solve(part, start_options, controls);
+  if (start.status != Status::Converged) return {};
+  return start;
+}
+
 // An application for reading Ipopt's option registry (never run).
 Ipopt::SmartPtr<Ipopt::IpoptApplication> make_registry_application() {
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = new Ipopt::IpoptApplication(false, false);
@@ -100,14 +120,22 @@ IpoptOption typed_native_option(Ipopt::IpoptApplication& app, const std::string&
 IpoptOptions IpoptOptions::FromPairs(const OptionPairs& pairs) {
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = make_registry_application();
   IpoptOptions o;
-  o.native = pairs;
-  for (const auto& [key, value] : pairs) o.typed.push_back(typed_native_option(*app, key, value));
+  for (const auto& [key, value] : pairs) {
+    if (key == kStartKey) {
+      if (value == "scene") o.start = IpoptStart::Scene;
+      else if (value == "alternating-gn") o.start = IpoptStart::AlternatingGn;
+      else throw OptionError("ipopt", key, value, "not a start (valid: scene, alternating-gn)");
+      continue;
+    }
+    o.native[key] = value;
+    o.typed.push_back(typed_native_option(*app, key, value));
+  }
   return o;
 }
 
 bool IpoptOptions::IsValid(std::string* why) const {
   try {
-    FromPairs(native);
+    FromPairs(native);  // `start` is an enum and always valid
   } catch (const OptionError& e) {
     if (why) *why = e.what();
     return false;
@@ -143,9 +171,14 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
   const double constraint_tolerance = 0.1 * options.tolerance * load_over_force / std::sqrt(3.0);
 
+  SolveResult start;
+  if (ipopt_options.start == IpoptStart::AlternatingGn) start = equilibrium_start(part, options);
+  const bool from_equilibrium = start.positions.cols() == part.num_nodes();
+
   IpoptSettings settings;
   settings.verbose = options.verbose;
   settings.set("linear_solver", "mumps");
+  settings.set("mumps_pivot_order", kQuasiDenseOrdering);
   settings.set("hessian_approximation", "exact");
   settings.set("mu_strategy", "adaptive");
   // Tight: on scenes that need no change the barrier leaves a drift of order mu.
@@ -165,6 +198,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   settings.options.insert(settings.options.end(), ipopt_options.typed.begin(), ipopt_options.typed.end());
 
   DimensionlessEq5 problem(nlp, sigma0);
+  if (from_equilibrium) problem.set_start(nlp.equilibrium().free_nodes().gather(start.positions), start.forces);
   settings.on_iteration = [&](const IpoptIteration& it) {
     recorder.record(problem.trace_point(it, max_free_weight));
     return recorder.out_of_time() ? IterationControl::StopForTimeLimit : IterationControl::Continue;
@@ -173,6 +207,9 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   result.native_code = run.return_code;
   result.status = run.status;
   result.message = run.message;
+  if (from_equilibrium)
+    result.message += " (started from alternating-gn's equilibrium after " + std::to_string(start.stats.iterations) +
+                      " iterations)";
   result.stats.iterations = run.iterations;
 
   if (problem.has_final_point() && problem.final_point().allFinite()) {

@@ -6,9 +6,14 @@
 // Ipopt sees a dimensionless problem: y = ((q - q0) / L, sigma / F0), equality
 // rows f / F0 and c^T sigma / F0 (L = mean element length, F0 the ForceScale
 // reference force), so its tolerances mean the same at every scene scale.
-// Starting point: the scene geometry and the stress QP's forces.
+// Starting point (option `start`): by default the scene geometry with the
+// stress QP's forces; with `start=alternating-gn` the equilibrium that
+// alternating-gn reaches from the scene (the scene again when it does not
+// converge). docs/BACKENDS.md compares the two.
 //
-// Defaults: exact Hessian, linear_solver mumps, tol 1e-12, constr_viol_tol
+// Defaults: exact Hessian, linear_solver mumps with the QAMD ordering (the
+// force-scale row couples every cable force, and QAMD keeps such quasi-dense
+// rows out of the fill-reducing ordering), tol 1e-12, constr_viol_tol
 // derived from SolveOptions::tolerance (so that Ipopt's success implies the
 // contract's relative residual), mu_strategy adaptive, max_iter from the
 // iteration budget (SolveOptions::iteration_budget), the time limit checked
@@ -32,10 +37,17 @@
 
 namespace tensegrity {
 
-// Native Ipopt options given as `--option key=value`, checked against
-// Ipopt's own registry (name, type and range).
+// Where Ipopt starts: the scene geometry with the stress QP's forces, or the
+// equilibrium that alternating-gn finds (the objective still measures the
+// change from the scene geometry, so this is a start, not a different problem).
+enum class IpoptStart { Scene, AlternatingGn };
+
+// `start=scene|alternating-gn` (default scene) and native Ipopt
+// options given as `--option key=value`, checked against Ipopt's own registry
+// (name, type and range).
 struct IpoptOptions {
-  OptionPairs native;
+  IpoptStart start = IpoptStart::Scene;
+  OptionPairs native;  // every pair except `start`
   std::vector<IpoptOption> typed;  // `native` with the types of Ipopt's registry
   static IpoptOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
