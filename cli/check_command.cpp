@@ -1,4 +1,9 @@
-// tensegrity check SCENE SOLUTION [--tol T]: independent re-verification.
+// tensegrity check SCENE SOLUTION [--tol T] [--stability]: independent
+// re-verification, optionally with the stability of the equilibrium.
+//
+// Exit status: 0 verified (and with --stability: stable); 1 does not verify;
+// 2 bad input; 3 (--stability only) verified but marginal or unstable, so that
+// a script can tell "not an equilibrium" from "an equilibrium that will not hold".
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -13,6 +18,10 @@
 #include "simulation/stability.hpp"
 
 namespace tensegrity::cli {
+
+namespace {
+constexpr int kExitVerifiedNotStable = 3;
+}  // namespace
 
 void register_check_command(CLI::App& app, CommandRunner& run) {
   struct Args {
@@ -29,7 +38,8 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("solution", args->solution, "Solution file")->required();
   cmd->add_option("--tol", args->tol, "Relative residual tolerance (finite, > 0)");
   cmd->add_flag("--stability", args->stability,
-                "Also test stability: smallest tangent-stiffness eigenvalues, prestress stability (exit 0 only if stable)");
+                "Also test stability: smallest tangent-stiffness eigenvalues, prestress stability (exit 0 stable, 3 "
+                "verified but marginal or unstable, 1 not verified)");
   cmd->add_option("--design", args->design, "With --stability: take cable materials and rest lengths from this design");
   cmd->add_flag("--json", args->json, "Print the verification as one JSON object (without --stability)");
   cmd->add_option("--cable-strain", args->cable_strain,
@@ -84,7 +94,8 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
       const PrestressReport ps = prestress_stability(scene, sol.positions, sol.forces);
       std::printf("prestress         %s, %s (%s)\n", ps.prestress_stable ? "prestress stable" : "not prestress stable",
                   ps.super_stable ? "super stable" : "not super stable", ps.message.c_str());
-      return v.ok && st.verdict == Stability::Stable ? 0 : 1;
+      if (!v.ok) return 1;
+      return st.verdict == Stability::Stable ? 0 : kExitVerifiedNotStable;
     };
   });
 }

@@ -1,8 +1,9 @@
 #pragma once
 // Each subcommand lives in its own file and registers itself on the app.
 // A command's callback returns the process exit status (0 converged / ok,
-// 1 ran but did not converge or verify, 2 bad input); InputError thrown from a
-// command is turned into one line on stderr and exit status 2 by main.cpp.
+// 1 ran but did not converge or verify, 2 bad input, 3 `check --stability`:
+// verified but not stable); InputError thrown from a command is turned into
+// one line on stderr and exit status 2 by main.cpp.
 #include <CLI/CLI.hpp>
 #include <functional>
 

@@ -1,6 +1,6 @@
 // tensegrity design SCENE|CHARACTER [--strain S] [--material NAME] [--naive-fraction F]
 //   [--solver NAME] --out DESIGN.json [--sheet FILE.csv]
-//   [--compare-naive] [--naive-fractions FROM:TO:N] [--settle relax|simulate] [--settle-duration S]
+//   [--compare-naive] [--naive-fractions FROM:TO:N] [--settle relax|simulate] [--settle-duration S] [--quiet]
 //
 // Runs only the stages the input needs: form finding (skipped when the input
 // geometry already is a tensegrity), stiffness scaling (the QP of
@@ -52,6 +52,7 @@ struct DesignArgs {
   double time_limit = 120.0;
   std::vector<std::string> material_dirs;
   bool compare_naive = false;
+  bool quiet = false;
   std::string naive_fractions, settle = "relax";
   double settle_duration = 5.0;
 };
@@ -112,6 +113,7 @@ int run_design(const DesignArgs& a) {
   req.naive_fraction = a.naive_fraction;
   req.tol = a.tol;
   req.time_limit = a.time_limit;
+  req.quiet = a.quiet;
   check_design_request(req);
   const bool naive = !std::isnan(a.naive_fraction);
   if (a.out.empty()) throw InputError("command line", "--out", "missing");
@@ -146,13 +148,13 @@ int run_design(const DesignArgs& a) {
 
   if (compare) {
     if (fractions.empty()) fractions = default_fraction_grid(d);
-    const bool terminal = ::isatty(STDERR_FILENO);
+    const bool terminal = ::isatty(STDERR_FILENO) && !a.quiet;
     const NaiveComparison c = naive_fraction_sweep(d, fractions, settle_options, [terminal](int done, int total) {
       if (!terminal) return;
       std::cerr << "\rdesign: settling " << done << "/" << total << std::flush;
       if (done == total) std::cerr << "\n";
     });
-    std::cerr << naive_comparison_table(c, settle_options.method);
+    if (!a.quiet) std::cerr << naive_comparison_table(c, settle_options.method);
     d.info["naive_comparison"] = naive_comparison_json(c, settle_options.method);
   }
 
@@ -173,6 +175,7 @@ int run_design(const DesignArgs& a) {
 
   int struts = 0, cables = 0;
   for (const auto& el : d.structure.elements) (el.kind == ElementKind::Strut ? struts : cables)++;
+  if (a.quiet) return 0;
   std::cerr << "design: " << scene.name << ": " << struts << " struts, " << cables << " cables, cable strain "
             << text(100 * strain_lo) << "% .. " << text(100 * strain_hi) << "%, relative residual "
             << text(d.solution.stats.relative_residual) << "\n";
@@ -207,6 +210,9 @@ void register_design_command(CLI::App& app, CommandRunner& run) {
                   "How --compare-naive settles: relax (static equilibrium, default) or simulate (damped implicit "
                   "Euler)");
   cmd->add_option("--settle-duration", args->settle_duration, "Simulated seconds for --settle simulate (default 5)");
+  cmd->add_flag("--quiet", args->quiet,
+                "No informational lines on stderr (progress, summaries, the --compare-naive table); errors still "
+                "print");
   cmd->callback([args, &run] { run = [args] { return run_design(*args); }; });
 }
 

@@ -227,7 +227,7 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
   if (ff.status != Status::Converged || !within_prestress_cap(scene, ff.forces, form_options)) {
     ff = solver.Solve(scene, form_options, DriverControls{false});
     form_solver = std::string(solver.name());
-    std::cerr << summary_line(scene, form_solver, ff) << "\n";
+    if (!req.quiet) std::cerr << summary_line(scene, form_solver, ff) << "\n";
     if (ff.status != Status::Converged)
       return fail("form finding", std::string(to_string(ff.status)) + ": " + ff.message);
   }
@@ -277,7 +277,8 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
                             {"active_bounds", qr.active_bounds},
                             {"polished", qr.polished},
                             {"seconds", qr.seconds}};
-    std::cerr << "design: stiffness QP " << to_string(qr.status) << ": " << qr.message << ", relative residual "
+    if (!req.quiet)
+      std::cerr << "design: stiffness QP " << to_string(qr.status) << ": " << qr.message << ", relative residual "
               << message_number(qr.relative_residual) << ", max |sigma - target| " << message_number(qr.max_target_deviation) << " N, "
               << qr.active_bounds << " bounds active\n";
     if (qr.status != Status::Converged)

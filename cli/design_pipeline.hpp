@@ -27,6 +27,7 @@ struct DesignRequest {
   double tol = 1e-8;                        // relative residual of form finding and verification
   double time_limit = 120.0;                // form-finding budget (s)
   std::string options_source = "command line";  // names the options in InputError messages
+  bool quiet = false;                       // no informational lines on stderr
 };
 
 struct DesignOutcome {

@@ -1,4 +1,4 @@
-// tensegrity relax DESIGN [--gravity gx,gy,gz] [--out FILE] [--tol T]
+// tensegrity relax DESIGN [--gravity gx,gy,gz] [--out FILE] [--tol T] [--quiet]
 //
 // The static check of a fabricated character: with the designed rest lengths
 // and materials fixed, find the equilibrium by minimising the elastic energy
@@ -25,6 +25,7 @@ struct RelaxArgs {
   std::string design, out, gravity;
   double tol = 1e-9;
   int max_iterations = 500;
+  bool quiet = false;
 };
 
 Eigen::Vector3d parse_gravity(const std::string& text) {
@@ -73,7 +74,9 @@ int run_relax(const RelaxArgs& a) {
   sol.extra["cables_outside_measured_range"] = r.cables_outside_range;
   sol.extra["message"] = r.message;
   if (!a.out.empty()) write_solution_file(sol, a.out);
-  std::fprintf(stderr,
+  // --quiet keeps the summary of a failed relax: it says why.
+  if (!a.quiet || r.status != Status::Converged)
+    std::fprintf(stderr,
                "relax: %s: %s in %d iterations (%d definite), %.3f ms; max net force %.3g N; largest displacement "
                "%.6g m at node %d (%.3g of the size %.4g m); %d slack cables, %d outside the measured range\n",
                s.name.c_str(), std::string(to_string(r.status)).c_str(), r.iterations, r.definite_steps,
@@ -94,6 +97,7 @@ void register_relax_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--out", args->out, "Solution file with the relaxed positions and forces (- for stdout)");
   cmd->add_option("--tol", args->tol, "Max net force relative to the largest designed force (default 1e-9)");
   cmd->add_option("--max-iterations", args->max_iterations, "Newton iteration budget");
+  cmd->add_flag("--quiet", args->quiet, "No summary on stderr unless relax fails (errors still print)");
   cmd->callback([args, &run] { run = [args] { return run_relax(*args); }; });
 }
 

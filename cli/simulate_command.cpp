@@ -5,8 +5,10 @@
 // Implicit Euler on the built design (solvers/simulator.hpp). Writes one JSON
 // line per output frame, a legacy-VTK file per frame beside FRAMES
 // (FRAMES-stem.NNNNNN.vtk) with a ParaView FRAMES-stem.vtk.series, and with
-// --render a PNG filmstrip of six frames. Prints each step's Newton
-// iterations and time on standard error.
+// --render a PNG filmstrip of six frames. On standard error: a status line
+// rewritten in place on a terminal (cli/progress.hpp), else a line at every
+// tenth of the run; a line for every step whose Newton solve failed; and a
+// summary.
 #include <cairo.h>
 
 #include <algorithm>
@@ -21,6 +23,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/exporters.hpp"
+#include "cli/progress.hpp"
 #include "cli/renderer.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"
@@ -235,6 +238,10 @@ int run_simulate(const SimulateArgs& a) {
   };
 
   emit(0, nullptr);
+  const bool on_terminal = stderr_is_terminal();
+  ProgressLine progress(on_terminal && !a.quiet);
+  char status[160];
+  int last_tenth = 0;
   int failed = 0, total_newton = 0;
   double total_seconds = 0.0, worst = 0.0;
   for (int k = 1; k <= a.steps; ++k) {
@@ -246,16 +253,37 @@ int run_simulate(const SimulateArgs& a) {
     total_newton += r.newton_iterations;
     total_seconds += r.seconds;
     worst = std::max(worst, r.seconds);
-    if (!a.quiet)
-      std::fprintf(stderr, "step %d t=%.4f s newton=%d%s time=%.3f ms%s\n", k, sim.time(), r.newton_iterations,
-                   r.definite_fallbacks ? " (definite)" : "", 1e3 * r.seconds, r.converged ? "" : " NOT CONVERGED");
+    if (!a.quiet) {
+      if (!r.converged) {
+        progress.clear();
+        std::fprintf(stderr, "simulate: step %d t=%.4f s newton=%d%s time=%.3f ms NOT CONVERGED\n", k, sim.time(),
+                     r.newton_iterations, r.definite_fallbacks ? " (definite)" : "", 1e3 * r.seconds);
+      }
+      if (progress.due() || (k == a.steps && progress.shown())) {
+        std::snprintf(status, sizeof status, "simulate: step %d/%d, t = %.4f s, %.1f s elapsed", k, a.steps,
+                      sim.time(), progress.elapsed());
+        progress.show(status);
+      }
+      // Without a terminal, a line at every tenth of the run.
+      const int tenth = 10 * k / a.steps;
+      if (!on_terminal && tenth > last_tenth) {
+        last_tenth = tenth;
+        std::fprintf(stderr,
+                     "simulate: step %d/%d (%d %%), t = %.4f s, %.2f Newton iterations per step, %d not converged, "
+                     "%.1f s elapsed\n",
+                     k, a.steps, 100 * k / a.steps, sim.time(), double(total_newton) / k, failed, progress.elapsed());
+      }
+    }
     if (k % a.every == 0 || k == a.steps) emit(k, &r);
   }
+  progress.finish();
   write_text_file_atomically(a.out, lines.str());
   if (!a.no_vtk) write_text_file_atomically((dir / (stem + ".vtk.series")).string(), series.dump(2) + "\n");
   if (!a.render.empty()) write_filmstrip(a.render, s, kept);
   Eigen::Matrix3Xd moved = sim.positions() - model.reference;
-  std::fprintf(stderr,
+  // --quiet keeps the summary of a run with failed steps: it says how many.
+  if (!a.quiet || failed > 0)
+    std::fprintf(stderr,
                "simulate: %s: %d steps of %.4g s, %d Newton iterations (%.2f per step), %.3f ms per step (max %.3f), "
                "%d not converged; largest displacement from the design %.4g m (%.3g of its size)\n",
                s.name.c_str(), a.steps, a.dt, total_newton, a.steps ? double(total_newton) / a.steps : 0.0,
@@ -284,7 +312,8 @@ void register_simulate_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--every", args->every, "Write every K-th step (default 1)");
   cmd->add_flag("--no-vtk", args->no_vtk, "Do not write the VTK series");
   cmd->add_option("--render", args->render, "PNG filmstrip of six frames");
-  cmd->add_flag("--quiet", args->quiet, "No per-step lines");
+  cmd->add_flag("--quiet", args->quiet,
+                "No progress and no summary on stderr unless a step fails (errors still print)");
   cmd->callback([args, &run] { run = [args] { return run_simulate(*args); }; });
 }
 

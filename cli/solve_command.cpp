@@ -1,11 +1,17 @@
 // tensegrity solve SCENE [--solver NAME] [--out FILE] [--tol T] [--option k=v]... [--trace FILE]
-//                       [--out-scene FILE]
+//                       [--out-scene FILE] [--verbose | --quiet]
+//
+// On a terminal, a solve that runs longer than a moment shows its iteration,
+// relative residual and time on one line of standard error (cli/progress.hpp).
+#include <array>
+#include <cstdio>
 #include <iostream>
 #include <memory>
 #include <string>
 
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
+#include "cli/progress.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 
@@ -22,8 +28,39 @@ struct SolveArgs {
   int max_iterations = 0;
   double time_limit = 120.0;
   bool verbose = false;
+  bool quiet = false;
   bool no_skip = false;
   std::vector<std::string> options;
+};
+
+// The status line of a running solve: the latest backend record, drawn when
+// the line is due (formatting costs nothing on the other iterations).
+class SolveProgress {
+ public:
+  explicit SolveProgress(bool enabled) : line_(enabled) {}
+  void record(const TracePoint& p, int part, int num_parts) {
+    last_ = p;
+    part_ = part;
+    num_parts_ = num_parts;
+    if (line_.due()) line_.show(text().data());
+  }
+  // The last record, then a newline (nothing when no line was shown).
+  void finish() {
+    if (line_.shown()) line_.finish(text().data());
+  }
+
+ private:
+  std::array<char, 160> text() const {
+    std::array<char, 160> t{};
+    char part[32] = "";
+    if (num_parts_ > 1) std::snprintf(part, sizeof part, "part %d/%d, ", part_ + 1, num_parts_);
+    std::snprintf(t.data(), t.size(), "solve: %siteration %d, relative residual %.3e, %.1f s", part,
+                  last_.iteration, last_.relative_residual, last_.seconds);
+    return t;
+  }
+  ProgressLine line_;
+  TracePoint last_;
+  int part_ = 0, num_parts_ = 1;
 };
 }  // namespace
 
@@ -40,7 +77,10 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--trace", args->trace, "Write the per-iteration record as CSV");
   cmd->add_option("--out-scene", args->out_scene,
                   "Also write the scene at the solved geometry (only when converged)");
-  cmd->add_flag("--verbose", args->verbose, "Let the backend print its own log to stderr");
+  auto* verbose = cmd->add_flag("--verbose", args->verbose,
+                                "Log every iteration to stderr (Ipopt: its own log; the others: one line each)");
+  cmd->add_flag("--quiet", args->quiet, "No progress line and no summary on stderr unless the solve fails (errors still print)")
+      ->excludes(verbose);
   cmd->add_flag("--no-skip", args->no_skip, "Do not return early when the scene is already in equilibrium");
   cmd->callback([args, &run] {
     run = [args] {
@@ -55,7 +95,13 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
       const auto solver = checked_solver(args->solver, options);
       const std::string name(solver->name());
       const Structure scene = read_scene_file(args->scene);
+      // A line rewritten in place would garble the --verbose log.
+      SolveProgress progress(stderr_is_terminal() && !args->quiet && !args->verbose);
+      controls.on_iteration = [&progress](const TracePoint& p, int part, int num_parts) {
+        progress.record(p, part, num_parts);
+      };
       const SolveResult r = solver->Solve(scene, options, controls);
+      progress.finish();
       write_solution_file(to_solution(r, scene, name), args->out);
       if (!args->trace.empty()) write_trace_csv(args->trace, r.trace);
       // The solved geometry as a new scene (a start for further design), only
@@ -65,7 +111,8 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
         solved.positions = r.positions;
         write_scene_file(solved, args->out_scene);
       }
-      std::cerr << summary_line(scene, name, r) << "\n";
+      // --quiet keeps the summary of a failed solve: it says why.
+      if (!args->quiet || r.status != Status::Converged) std::cerr << summary_line(scene, name, r) << "\n";
       return exit_status(r.status);
     };
   });

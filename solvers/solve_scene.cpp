@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <string>
 
@@ -13,6 +14,7 @@
 #include "model/errors.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
+#include "solvers/trace_recorder.hpp"
 
 namespace tensegrity {
 namespace {
@@ -109,9 +111,22 @@ void guard_shape(const Structure& part, SolveResult& r) {
   r.forces = Eigen::VectorXd::Zero(part.num_elements());
 }
 
-// Runs the solve of every part and merges the parts into one result.
+// The --verbose line of a backend without a log of its own, on standard error.
+void print_iteration_line(const char* solver, const TracePoint& p, int part, int num_parts) {
+  char where[32] = "";
+  if (num_parts > 1) std::snprintf(where, sizeof where, " part %d/%d", part + 1, num_parts);
+  std::fprintf(stderr,
+               "%s:%s iteration %d: residual %.6e N, relative %.6e, geometry change %.6e m, objective %.6e, "
+               "%d evaluations, %.3f s\n",
+               solver, where, p.iteration, p.residual, p.relative_residual, p.geometry_change, p.objective,
+               p.evaluations, p.seconds);
+}
+
+// Runs the solve of every part and merges the parts into one result; every
+// backend record goes to `on_iteration` (if set) with the part's number.
 template <class PartSolve>
-SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, PartSolve part_solve) {
+SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, PartSolve part_solve,
+                           const IterationCallback& on_iteration = {}) {
   const auto t0 = Clock::now();
   SolveResult total;
   total.status = Status::Converged;
@@ -142,6 +157,16 @@ SolveResult solve_by_parts(const Structure& scene, const SolveOptions& options, 
     SolveOptions part_options = options;
     part_options.time_limit_s = std::max(kSmallestPartTimeLimit, options.time_limit_s - seconds_since(t0));
     const double part_start = seconds_since(t0);
+    const int part_number = static_cast<int>(k);
+    const int num_parts = static_cast<int>(partition.parts.size());
+    IterationObserver observer;
+    if (on_iteration)
+      observer = [&on_iteration, part_start, part_number, num_parts](const TracePoint& p) {
+        TracePoint whole = p;
+        whole.seconds += part_start;
+        on_iteration(whole, part_number, num_parts);
+      };
+    const ScopedIterationObserver observing(observer ? &observer : nullptr);
     SolveResult r;
     try {
       r = part_solve(part.structure, part_options);
@@ -212,7 +237,14 @@ void Solver::ValidateOptions(const SolveOptions& options) const {
 SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, const DriverControls& controls) const {
   validate_settings(options);
   const std::shared_ptr<const void> parsed = ParseOptions(options.backend_options);
-  return solve_by_parts(scene, options, [&](const Structure& part, const SolveOptions& part_options) {
+  IterationCallback on_iteration = controls.on_iteration;
+  if (options.verbose && !prints_own_log())
+    on_iteration = [solver = std::string(name()), user = controls.on_iteration](const TracePoint& p, int part,
+                                                                               int num_parts) {
+      print_iteration_line(solver.c_str(), p, part, num_parts);
+      if (user) user(p, part, num_parts);
+    };
+  const auto solve_part = [&](const Structure& part, const SolveOptions& part_options) {
     if (unsupported_weight(part))
       return unchanged_part(part, reference_forces(part, make_force_scale(part, part_options.margin_fraction)),
                             Status::Infeasible, "gravity acts on a part without fixed nodes: no equilibrium exists");
@@ -224,7 +256,8 @@ SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, c
         initial_forces = std::move(shortcut.forces);
     }
     return DoSolve(PartProblem{part, part_options, initial_forces}, parsed.get());
-  });
+  };
+  return solve_by_parts(scene, options, solve_part, on_iteration);
 }
 
 SolveResult solve_scene(const Solver& solver, const Structure& scene, const SolveOptions& options,

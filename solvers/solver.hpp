@@ -12,6 +12,7 @@
 // Units: positions in m, forces in N (positive = tension), times in s.
 // Solver library headers (Ipopt, NLopt) never appear here.
 #include <Eigen/Core>
+#include <functional>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -43,7 +44,9 @@ struct SolveOptions {
   // kappa of Eq. 5 under gravity: mean cable force at most kappa times the
   // part's weight (formulations/force_scale.hpp, kDefaultPrestressFactor).
   double prestress_factor = 1.0;
-  bool verbose = false;           // let the backend print its own log to stderr
+  // Log to stderr: the backend's own log where it has one (prints_own_log),
+  // else one line per iteration record from the driver.
+  bool verbose = false;
   OptionPairs backend_options;    // parsed and validated by the backend
 
   // max_iterations, or `backend_default` when it is 0.
@@ -52,13 +55,6 @@ struct SolveOptions {
   }
   // False with the reason when a value is out of range.
   bool IsValid(std::string* why = nullptr) const;
-};
-
-// Switches of the scene driver (not settings of the method).
-struct DriverControls {
-  // Solve the stress QP first and return a part unchanged when its geometry
-  // already is a tensegrity (off for benchmarks that time the method itself).
-  bool skip_if_in_equilibrium = true;
 };
 
 // One record per backend iteration; iteration 0 is the starting point.
@@ -70,6 +66,25 @@ struct TracePoint {
   double relative_residual = 0.0;
   double geometry_change = 0.0;    // m
   double objective = 0.0;          // the backend's own objective (see its header)
+};
+
+// Called after every backend iteration with its record (`seconds` counted
+// from the start of the whole solve), the connected part it belongs to and the
+// number of parts. It runs on the solving thread inside the backend's loop, so
+// it must be cheap and must not throw; the record is only valid during the call.
+using IterationCallback = std::function<void(const TracePoint& point, int part, int num_parts)>;
+
+// Switches of the scene driver (not settings of the method).
+struct DriverControls {
+  DriverControls() = default;
+  // DriverControls{false}: without the shortcut below.
+  explicit DriverControls(bool skip) : skip_if_in_equilibrium(skip) {}
+
+  // Solve the stress QP first and return a part unchanged when its geometry
+  // already is a tensegrity (off for benchmarks that time the method itself).
+  bool skip_if_in_equilibrium = true;
+  // Progress of the backends (none when empty).
+  IterationCallback on_iteration;
 };
 
 // What a backend reports beyond the common fields (counts of non-optimal
@@ -96,6 +111,9 @@ class Solver {
  public:
   virtual ~Solver() = default;
   virtual std::string_view name() const = 0;
+  // True when the backend prints its own iteration log under
+  // SolveOptions::verbose; otherwise the driver prints one line per record.
+  virtual bool prints_own_log() const { return false; }
 
   // Form-finds `scene`. Throws InputError (OptionError for backend options)
   // for invalid settings; every solver outcome is a status, never an exception.

@@ -56,6 +56,7 @@ struct IpoptOptions {
 class IpoptSolver : public SolverWithOptions<IpoptOptions> {
  public:
   std::string_view name() const override { return "ipopt"; }
+  bool prints_own_log() const override { return true; }  // Ipopt's iteration log under verbose
 
  protected:
   SolveResult DoSolve(const PartProblem& problem, const IpoptOptions& options) const override;

@@ -1,0 +1,50 @@
+#pragma once
+// A status line on standard error for long runs, rewritten in place with a
+// carriage return: shown only when enabled (standard error is a terminal and
+// the user did not ask for --quiet), only after a delay, so that short runs
+// print nothing extra, and at most a few times per second.
+#include <chrono>
+
+namespace tensegrity::cli {
+
+// Seconds before a status line appears, unless TENSEGRITY_PROGRESS_AFTER
+// holds a number >= 0 (tests use 0).
+inline constexpr double kDefaultProgressDelay = 2.0;  // s
+// Shortest time between two updates of the line.
+inline constexpr double kProgressInterval = 0.25;  // s
+
+double progress_delay();
+bool stderr_is_terminal();
+
+class ProgressLine {
+ public:
+  // Shows nothing unless `enabled`.
+  explicit ProgressLine(bool enabled, double delay_s = progress_delay());
+  ~ProgressLine() { finish(); }
+  ProgressLine(const ProgressLine&) = delete;
+  ProgressLine& operator=(const ProgressLine&) = delete;
+
+  // True when an update would be shown now (one clock read): enabled, past
+  // the delay and past the interval since the last update.
+  bool due() const;
+  double elapsed() const;  // s since construction
+  bool shown() const { return width_ > 0; }
+  // Writes `text` over the line shown before.
+  void show(const char* text);
+  // Blanks the line so that an ordinary line can be printed; the next show()
+  // draws it again.
+  void clear();
+  // Ends a shown line with a newline, after showing `final_text` if given;
+  // nothing when no line was shown.
+  void finish(const char* final_text = nullptr);
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  bool enabled_;
+  double delay_s_;
+  Clock::time_point start_;
+  Clock::time_point last_;
+  int width_ = 0;  // characters on the line now
+};
+
+}  // namespace tensegrity::cli

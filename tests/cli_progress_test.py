@@ -1,0 +1,218 @@
+#!/usr/bin/python3
+"""Progress of `tensegrity solve` and `simulate` on standard error (docs/USER-GUIDE.md).
+
+On a terminal (a pseudo-terminal here) a solve shows one status line,
+rewritten in place with a carriage return: iteration, relative residual and
+seconds, ending with the last iteration record and a newline before the
+summary. With --quiet, or when standard error is not a terminal, no status
+line appears. TENSEGRITY_PROGRESS_AFTER=0 drops the two-second delay, so the
+test does not depend on how long the solve takes on this machine.
+
+    /usr/bin/python3 tests/cli_progress_test.py --binary build/tensegrity --source .
+
+Exit status 0 when every check passes, 1 otherwise (each failure is printed).
+"""
+import argparse
+import csv
+import json
+import os
+import pathlib
+import pty
+import random
+import re
+import select
+import subprocess
+import sys
+import tempfile
+import time
+
+PROGRESS = re.compile(r"solve: (?:part (\d+)/(\d+), )?iteration (\d+), relative residual ([-+0-9.e]+), ([0-9.]+) s")
+SIMULATE_STATUS = re.compile(r"simulate: step (\d+)/(\d+), t = ([0-9.]+) s, ([0-9.]+) s elapsed")
+SIMULATE_TENTH = re.compile(r"simulate: step (\d+)/(\d+) \((\d+) %\), t = ([0-9.]+) s")
+TIME_LIMIT = 300  # s, against a hang
+
+failures = []
+
+
+def check(condition, what, context=""):
+    if not condition:
+        failures.append(what)
+        print("FAIL: " + what + ("\n" + context if context else ""), file=sys.stderr)
+
+
+def environment(delay):
+    env = dict(os.environ)
+    env.pop("TENSEGRITY_PROGRESS_AFTER", None)
+    if delay is not None:
+        env["TENSEGRITY_PROGRESS_AFTER"] = str(delay)
+    return env
+
+
+def run_on_terminal(args, delay):
+    """Runs the program with standard error on a pseudo-terminal; (status, text seen there)."""
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=slave,
+                            env=environment(delay))
+    os.close(slave)
+    chunks = []
+    deadline = time.monotonic() + TIME_LIMIT
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([master], [], [], 1.0)
+        if not ready:
+            if proc.poll() is not None:
+                break
+            continue
+        try:
+            data = os.read(master, 4096)
+        except OSError:  # EIO: every writer closed the terminal
+            break
+        if not data:
+            break
+        chunks.append(data)
+    os.close(master)
+    if proc.poll() is None:
+        proc.kill()
+    return proc.wait(), b"".join(chunks).decode()
+
+
+def run_on_pipe(args, delay):
+    r = subprocess.run(args, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                       env=environment(delay), timeout=TIME_LIMIT)
+    return r.returncode, r.stderr.decode()
+
+
+def last_trace_row(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return rows[-1], len(rows)
+
+
+def perturbed_prism(source, work):
+    """The 8-prism with every node moved by up to 5 cm (seeded): every backend converges on it."""
+    scene = json.loads((source / "data/reference/prism-8.scene.json").read_text())
+    rng = random.Random(5)
+    for node in scene["nodes"]:
+        node["x"] = [x + rng.uniform(-0.05, 0.05) for x in node["x"]]
+    scene["name"] = "prism-8-perturbed"
+    path = work / "prism-8-perturbed.scene.json"
+    path.write_text(json.dumps(scene))
+    return path
+
+
+def check_solve(binary, scene, work, solver):
+    solution = work / "s.solution.json"
+    trace = work / "s.csv"
+    solve = [binary, "solve", str(scene), "--solver", solver, "--out", str(solution), "--trace", str(trace)]
+
+    # On a terminal: status lines, the last one the final iteration record.
+    status, err = run_on_terminal(solve, 0)
+    check(status == 0, f"{solver}: solve on a terminal exits 0, got {status}", err)
+    updates = PROGRESS.findall(err)
+    # The first record is due at once (no delay), the last one is drawn at the end.
+    check(len(updates) >= 2, f"{solver}: status lines appear on a terminal", repr(err))
+    check("\r" in err, f"{solver}: the status line is rewritten with a carriage return", repr(err))
+    if not updates:
+        return
+    row, rows = last_trace_row(trace)
+    sol = json.loads(solution.read_text())
+    last = updates[-1]
+    check(int(last[2]) == int(row["iteration"]),
+          f"{solver}: the last status shows the last iteration {row['iteration']}, got {last[2]}", repr(err))
+    shown, recorded = float(last[3]), float(row["relative_residual"])
+    check(abs(shown - recorded) <= 1e-3 * recorded,
+          f"{solver}: the last status shows the last relative residual {recorded}, got {shown}", repr(err))
+    check(recorded <= 1e-8, f"{solver}: the solve converged (relative residual {recorded})")
+    iterations = [int(u[2]) for u in updates]
+    check(iterations == sorted(iterations), f"{solver}: iterations in the status line never go back: {iterations}")
+    seconds = [float(u[4]) for u in updates]
+    check(seconds == sorted(seconds), f"{solver}: seconds in the status line never go back: {seconds}")
+    check(seconds[-1] <= sol["stats"]["seconds"] + 0.05,
+          f"{solver}: the status time {seconds[-1]} s is within the solve's {sol['stats']['seconds']} s")
+    # At most one update per 0.25 s, plus the first and the final one.
+    check(len(updates) <= 2 + sol["stats"]["seconds"] / 0.25,
+          f"{solver}: {len(updates)} updates in {sol['stats']['seconds']} s is more than 4 per second")
+    # Finished with a newline: the summary starts a line of its own.
+    check(re.search(r"\n[^\r\n]*: converged by " + re.escape(solver), err) is not None,
+          f"{solver}: the summary follows the status line on a new line", repr(err))
+
+    check(int(updates[0][2]) <= 1, f"{solver}: the first status shows iteration 0 or 1, got {updates[0][2]}")
+
+    # With the default delay of 2 s a solve this short (well under 0.1 s here)
+    # shows no status line, only its summary.
+    status, err = run_on_terminal(solve, None)
+    check(status == 0 and not PROGRESS.search(err) and "\r\n" in err and err.count("\n") == 1,
+          f"{solver}: a short solve shows only its summary on a terminal", repr(err))
+
+    # --quiet: nothing at all for a converged solve.
+    status, err = run_on_terminal(solve + ["--quiet"], 0)
+    check(status == 0, f"{solver}: --quiet exits 0, got {status}", err)
+    check(err == "", f"{solver}: --quiet prints nothing on a terminal", repr(err))
+
+    # Not a terminal: only the summary line.
+    status, err = run_on_pipe(solve, 0)
+    check(status == 0, f"{solver}: solve without a terminal exits 0, got {status}", err)
+    check(not PROGRESS.search(err) and "\r" not in err, f"{solver}: no status line without a terminal", repr(err))
+    check(err.count("\n") == 1 and ": converged by " + solver in err,
+          f"{solver}: exactly the summary line without a terminal", repr(err))
+
+
+def check_verbose(binary, scene, work):
+    # --verbose on a terminal: the per-iteration log, no status line over it.
+    trace = work / "v.csv"
+    status, err = run_on_terminal([binary, "solve", str(scene), "--solver", "alternating", "--out",
+                                   str(work / "v.solution.json"), "--trace", str(trace), "--verbose"], 0)
+    check(status == 0, f"--verbose exits 0, got {status}", err)
+    check(not PROGRESS.search(err), "--verbose shows no status line", repr(err[:2000]))
+    _, rows = last_trace_row(trace)
+    logged = re.findall(r"alternating: iteration (\d+): residual", err)
+    check(len(logged) == rows, f"--verbose logs one line per trace row ({rows}), got {len(logged)}")
+
+
+def check_simulate(binary, source, work):
+    design = work / "prism.design.json"
+    subprocess.run([binary, "design", str(source / "data/reference/prism-6-gravity.scene.json"), "--out",
+                    str(design), "--quiet"], check=True, timeout=TIME_LIMIT, stdin=subprocess.DEVNULL)
+    steps = 40
+    simulate = [binary, "simulate", str(design), "--dt", "0.01", "--steps", str(steps), "--no-vtk", "--out",
+                str(work / "frames.jsonl")]
+    # Not a terminal: a line at every tenth of the run instead of one per step, then the summary.
+    status, err = run_on_pipe(simulate, 0)
+    check(status == 0, f"simulate exits 0, got {status}", err)
+    tenths = SIMULATE_TENTH.findall(err)
+    check([int(t[0]) for t in tenths] == [4 * k for k in range(1, 11)],
+          "simulate without a terminal reports steps 4, 8, ..., 40", err)
+    check(all(int(t[2]) == 10 * (k + 1) for k, t in enumerate(tenths)), "simulate reports 10 %, 20 %, ...", err)
+    if tenths:
+        check(abs(float(tenths[-1][3]) - 0.4) < 1e-9, f"simulate ends at t = 0.4 s, got {tenths[-1][3]}", err)
+    check(err.count("\n") == 11 and "\r" not in err, "simulate without a terminal: 10 lines and the summary", err)
+    # A terminal: the status line, last at step 40 of 40, then the summary.
+    status, err = run_on_terminal(simulate, 0)
+    check(status == 0, f"simulate on a terminal exits 0, got {status}", err)
+    shown = SIMULATE_STATUS.findall(err)
+    check(len(shown) >= 1 and shown[-1][0] == str(steps) and shown[-1][1] == str(steps),
+          "simulate's status line ends at the last step", repr(err))
+    check(not SIMULATE_TENTH.search(err), "no tenth lines on a terminal", repr(err))
+    # --quiet: nothing.
+    status, err = run_on_terminal(simulate + ["--quiet"], 0)
+    check(status == 0 and err == "", "simulate --quiet prints nothing", repr(err))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--binary", required=True)
+    parser.add_argument("--source", required=True)
+    a = parser.parse_args()
+    source = pathlib.Path(a.source)
+    with tempfile.TemporaryDirectory(prefix="tensegrity-progress-") as tmp:
+        work = pathlib.Path(tmp)
+        scene = perturbed_prism(source, work)
+        for solver in ["alternating", "alternating-gn", "ipopt", "nlopt"]:
+            check_solve(a.binary, scene, work, solver)
+        check_verbose(a.binary, scene, work)
+        check_simulate(a.binary, source, work)
+    print(f"cli_progress: {len(failures)} failures")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
