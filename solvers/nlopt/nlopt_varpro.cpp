@@ -8,9 +8,10 @@
 // SLSQP and the CCSA methods step on) would only halve the residual per step,
 // while the norm grows linearly away from that set. tau is a quarter of the
 // tolerance in units of the load scale, so that a point NLopt accepts also meets
-// the contract's relative residual; when the independent verification still
-// rejects the answer after a convergence stop, the run is repeated from there
-// with tau ten times smaller (`varpro_rounds` runs at most).
+// the contract's relative residual. When the independent verification still
+// rejects the answer after a convergence stop, L-BFGS on R alone restores
+// equilibrium from there (a tiny move), and if that fails too the run is
+// repeated with tau ten times smaller (`varpro_rounds` runs at most).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -138,6 +139,39 @@ nlopt::result run_once(ReducedState& s, std::vector<double>& y, const NloptRun& 
   return code;
 }
 
+// R(y) alone, for the restoration below.
+double reduced_residual(unsigned, const double* y, double* grad, void* data) {
+  auto& s = *static_cast<ReducedState*>(data);
+  if (stop_if_late(s)) return HUGE_VAL;
+  ++s.evaluations;
+  const double value = s.reduced->evaluate(y, grad);
+  if (!std::isfinite(value)) {
+    s.forced = ForcedStop::NonFinite;
+    s.opt->force_stop();
+    return HUGE_VAL;
+  }
+  record(s, y);
+  return value;
+}
+
+// Restoration: L-BFGS on R alone from y until R <= tau^2. SLSQP can stop on
+// its own tests just outside the constraint; from there the nearest
+// equilibrium is a tiny move, which this finds without the distance term.
+nlopt::result restore(ReducedState& s, std::vector<double>& y, const NloptRun& o, const SolveOptions& so) {
+  nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(y.size()));
+  s.opt = &opt;
+  s.forced = ForcedStop::None;
+  opt.set_min_objective(reduced_residual, &s);
+  opt.set_stopval(s.target * s.target);
+  opt.set_ftol_rel(o.ftol_rel);
+  opt.set_xtol_rel(o.xtol_rel);
+  opt.set_maxeval(static_cast<int>(std::clamp<long>(o.maxeval - s.evaluations, 1L, kLargestEvaluationBudget)));
+  opt.set_maxtime(std::max(1e-3, so.time_limit_s - s.recorder->seconds()));
+  const nlopt::result code = run_nlopt(opt, y);
+  s.opt = nullptr;
+  return code;
+}
+
 bool is_convergence_stop(nlopt::result code) {
   return code == nlopt::SUCCESS || code == nlopt::FTOL_REACHED || code == nlopt::XTOL_REACHED ||
          code == nlopt::STOPVAL_REACHED || code == nlopt::ROUNDOFF_LIMITED;
@@ -180,6 +214,12 @@ PartAnswer solve_reduced(const Structure& part, const SolveOptions& options, con
     answer.end.iterations = static_cast<int>(std::min<long>(s.evaluations, std::numeric_limits<int>::max()));
     take(y);
     if (s.forced != ForcedStop::None || !is_convergence_stop(answer.end.code)) break;
+    if (verify(part, answer.positions, answer.forces, options.tolerance).ok) break;
+    answer.end.code = restore(s, y, o, options);
+    answer.end.forced = s.forced;
+    answer.end.iterations = static_cast<int>(std::min<long>(s.evaluations, std::numeric_limits<int>::max()));
+    take(y);
+    if (s.forced != ForcedStop::None) break;
     if (verify(part, answer.positions, answer.forces, options.tolerance).ok) break;
     s.target *= kTargetTightening;
   }
