@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "formulations/force_scale.hpp"
+#include "model/character.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
@@ -171,6 +172,38 @@ TEST(NloptVarpro, EveryAlgorithmVerifiesAndSlsqpReachesTheReferenceOptimum) {
     EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite()) << algorithm;
     std::printf("%-14s %s, geometry change %.9g m\n", algorithm.c_str(), r.message.c_str(), v.geometry_change);
   }
+}
+
+// Under gravity there is no committed optimum (tests/reference/README.md):
+// the cross-check is Ipopt on the same Eq. 5 with the same prestress cap.
+TEST(NloptVarpro, MatchesIpoptUnderGravity) {
+  for (const char* file : {"prism-3-gravity-noise1-s5", "octahedron-gravity-noise5-s8", "prism-6-gravity-noise5-s6"}) {
+    const Structure scene = read_scene_file(kReferenceDir + "scenes/" + file + ".scene.json");
+    SolveOptions options;
+    options.time_limit_s = 60.0;
+    const DriverControls no_shortcut{false};
+    const SolveResult ipopt = make_solver("ipopt")->Solve(scene, options, no_shortcut);
+    options.backend_options = {{"formulation", "varpro"}};
+    const SolveResult varpro = make_solver("nlopt")->Solve(scene, options, no_shortcut);
+    ASSERT_EQ(ipopt.status, Status::Converged) << file << ": " << ipopt.message;
+    ASSERT_EQ(varpro.status, Status::Converged) << file << ": " << varpro.message;
+    EXPECT_GT(ipopt.stats.geometry_change, 0.0) << file;
+    EXPECT_NEAR(varpro.stats.geometry_change / ipopt.stats.geometry_change, 1.0, kSameGeometryChange) << file;
+  }
+}
+
+// The scorpion balances at Eq. 5's force level (the QP meets the prestress
+// cap exactly), so one QP solve returns it unchanged, bit for bit.
+TEST(NloptVarpro, ScorpionAsBuiltIsReturnedUnchangedAfterOneQpSolve) {
+  Structure scene =
+      build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/scorpion.character.json").structure;
+  SolveOptions options;
+  options.time_limit_s = 60.0;
+  const SolveResult r = make_solver("nlopt")->Solve(scene, options, DriverControls{false});
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_EQ(r.stats.iterations, 0);
+  EXPECT_TRUE(r.positions == scene.positions);
+  EXPECT_LE(verify(scene, r.positions, r.forces, 1e-8).relative_residual, 1e-8);
 }
 
 TEST(NloptVarpro, FullFormulationAlgorithmsAndReducedOptionsDoNotMix) {
