@@ -1,10 +1,22 @@
 #pragma once
 // The `nlopt` backend: Eq. 5 (formulations/minimal_geometry_change_nlp.hpp)
-// solved with NLopt's local gradient algorithms. NLopt has no sparse linear
-// algebra, and its constrained algorithms either need a dense Jacobian of full
-// row rank (SLSQP; tensegrity equilibrium matrices are often rank-deficient) or
-// handle only inequalities (MMA, CCSAQ). The default therefore wraps NLopt's
-// bound-constrained L-BFGS in an augmented-Lagrangian outer loop of our own:
+// solved with NLopt's local gradient algorithms, in one of two formulations.
+//
+// formulation=varpro (reduced_residual.hpp, nlopt_varpro.cpp): variable
+// projection. The stress QP (Eq. 4) gives the forces for given positions, and
+// NLopt minimises |q - q0|^2 / L^2 over the positions alone subject to one
+// inequality, sqrt(R(q)) <= tau, R the QP's optimal residual (relative to F0)
+// with its gradient from the envelope theorem:
+//   varpro_algorithm  slsqp (NLopt's SLSQP), ccsaq, mma (the CCSA methods),
+//                     auglag-lbfgs (NLopt's AUGLAG around LD_LBFGS)
+//   varpro_rounds     NLopt runs at most, each with tau ten times smaller when
+//                     the verification rejected the previous one (4)
+//
+// formulation=full (nlopt_full*.cpp): NLopt has no sparse linear algebra, and
+// its constrained algorithms either need a dense Jacobian of full row rank
+// (SLSQP; tensegrity equilibrium matrices are often rank-deficient) or handle
+// only inequalities (MMA, CCSAQ), so `algorithm` al-* wraps NLopt's
+// bound-constrained algorithms in an augmented-Lagrangian outer loop of our own:
 //
 //   y = (q / L, sigma / F0)                      (dimensionless variables)
 //   c(y) = (f(q, sigma) / F0, c^T sigma / (n_c F0) - 1)
@@ -13,23 +25,27 @@
 //
 // after each inner solve lambda += rho c and rho grows tenfold when |c| did not
 // shrink fourfold. Stops once the contract's relative residual is below half
-// the tolerance; the result is then re-verified by model/verify.
-//
-// `--option` keys (SolveOptions::backend_options):
+// the tolerance.
 //   algorithm       al-lbfgs (default), al-tnewton, al-mma, al-ccsaq (the same
 //                   outer loop around another NLopt bound-constrained local
 //                   algorithm), penalty-lbfgs (quadratic penalty continuation,
 //                   no multipliers), auglag-eq-lbfgs (NLopt's own AUGLAG_EQ
 //                   around LD_LBFGS), slsqp (NLopt's SLSQP on Eq. 5, dense)
-//   ftol_rel, xtol_rel   NLopt stopping tolerances of each NLopt run (1e-15)
-//   maxeval         total function evaluations (100 * the iteration budget,
-//                   SolveOptions::iteration_budget: 2000 when max_iterations is 0)
 //   penalty_initial rho at the start (10), penalty_growth (10), penalty_max (1e12)
-//   lbfgs_memory    L-BFGS / TNEWTON vector storage, 0 = NLopt's heuristic (0)
 //   init            qp (stress QP at the scene geometry, default) or reference
 //                   (+F0 on cables, -F0 on struts)
 // max_iterations bounds the outer iterations (every NLopt algorithm's own
-// iterations are bounded by maxeval); time_limit_s becomes NLopt's maxtime.
+// iterations are bounded by maxeval).
+//
+// Both formulations:
+//   ftol_rel, xtol_rel   NLopt stopping tolerances of each NLopt run (1e-15)
+//   maxeval         total function evaluations; default: the iteration budget
+//                   (SolveOptions::iteration_budget: 2000 when max_iterations is
+//                   0) for varpro, where an evaluation is one stress-QP solve and
+//                   counts as an iteration, 100 times that for full
+//   lbfgs_memory    L-BFGS / TNEWTON vector storage, 0 = NLopt's heuristic (0)
+// time_limit_s becomes NLopt's maxtime. Every result is re-verified by
+// model/verify before it is called converged.
 #include <memory>
 #include <string>
 #include <string_view>
@@ -42,8 +58,14 @@ namespace tensegrity {
 // Largest L-BFGS / TNEWTON vector storage an option may ask for.
 inline constexpr int kLargestLbfgsMemory = 1000;
 
+// Most NLopt runs of formulation=varpro an option may ask for.
+inline constexpr int kLargestVarproRounds = 100;
+
 struct NloptOptions {
-  std::string algorithm = "al-lbfgs";  // see above
+  std::string formulation = "varpro";  // varpro | full
+  std::string varpro_algorithm = "slsqp";  // see above
+  int varpro_rounds = 4;
+  std::string algorithm = "al-lbfgs";  // formulation=full, see above
   double ftol_rel = 1e-15;             // NLopt stopping tolerances of each NLopt run
   double xtol_rel = 1e-15;
   long maxeval = 0;                    // total evaluations; 0: 100 x the iteration budget
@@ -59,7 +81,9 @@ struct NloptOptions {
 class NloptSolver : public SolverWithOptions<NloptOptions> {
  public:
   std::string_view name() const override { return "nlopt"; }
+  // formulation=full's algorithms and formulation=varpro's.
   static std::vector<std::string> algorithm_names();
+  static std::vector<std::string> varpro_algorithm_names();
   static std::string default_algorithm() { return "al-lbfgs"; }
 
  protected:

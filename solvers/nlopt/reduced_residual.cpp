@@ -1,0 +1,70 @@
+#include "solvers/nlopt/reduced_residual.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tensegrity {
+
+ForceScale ReducedResidual::qp_scale(const ForceScale& scale) {
+  ForceScale s = scale;
+  if (scale.has_prestress_cap()) {
+    s.load_sets_scale = false;  // has_normalisation() is now true ...
+    s.normalisation_target = scale.prestress_cap;  // ... with the cap as its target
+  }
+  return s;
+}
+
+ReducedResidual::ReducedResidual(const Structure& part, const ForceScale& scale,
+                                 const Eigen::VectorXd& initial_forces)
+    : part_(part), eq_(part_), scale_(qp_scale(scale)), qp_(eq_, scale_) {
+  const double mean_length = part_.mean_element_length();
+  length_ = std::isfinite(mean_length) && mean_length > 0.0 ? mean_length : 1.0;
+  reference_force_ = scale_.reference_force > 0.0 ? scale_.reference_force : 1.0;
+  if (scale_.has_normalisation()) normalisation_weight_ = qp_.options().normalisation_weight;
+  double weight = 0.0;
+  const Eigen::Matrix3Xd loads = part_.gravity_loads();
+  for (int i = 0; i < part_.num_nodes(); ++i)
+    if (!part_.fixed[i]) weight = std::max(weight, loads.col(i).norm());
+  load_scale_ = weight > 0.0 ? weight : reference_force_;
+  q0_ = eq_.free_nodes().gather(part_.positions);
+  y0_ = Eigen::VectorXd::Zero(q0_.size());
+  sigma_ = initial_forces.size() == part_.num_elements() && initial_forces.allFinite()
+               ? initial_forces
+               : reference_forces(part_, scale_);
+}
+
+double ReducedResidual::evaluate(const double* y, double* grad) {
+  const int n = num_variables();
+  q_ = q0_ + Eigen::Map<const Eigen::VectorXd>(y, n) * length_;
+  eq_.set_free_coordinates(q_);
+  const StressQpResult r = qp_.solve(sigma_);
+  ++qp_solves_;
+  qp_status_ = r.status;
+  if (r.sigma.size() == sigma_.size() && r.sigma.allFinite()) sigma_ = r.sigma;
+  eq_.residual(sigma_, f_);
+  double value = f_.squaredNorm();
+  if (normalisation_weight_ > 0.0) {
+    const double e = normalisation_weight_ * (scale_.normalisation_row.dot(sigma_) - scale_.normalisation_target);
+    value += e * e;
+  }
+  const double f0_squared = reference_force_ * reference_force_;
+  if (grad != nullptr) {
+    eq_.jacobian_positions_product(sigma_, f_, jf_);
+    Eigen::Map<Eigen::VectorXd>(grad, n) = (2.0 * length_ / f0_squared) * jf_;
+  }
+  return value / f0_squared;
+}
+
+double ReducedResidual::max_node_residual() const {
+  double worst = 0.0;
+  for (Eigen::Index k = 0; k + 2 < f_.size(); k += 3) worst = std::max(worst, f_.segment<3>(k).norm());
+  return worst;
+}
+
+Eigen::Matrix3Xd ReducedResidual::positions(const double* y) const {
+  Eigen::Matrix3Xd x = part_.positions;
+  eq_.free_nodes().scatter(q0_ + Eigen::Map<const Eigen::VectorXd>(y, num_variables()) * length_, x);
+  return x;
+}
+
+}  // namespace tensegrity
