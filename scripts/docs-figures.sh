@@ -17,7 +17,8 @@
 # Environment: FIGURES_BUILD_DIR (default build), FIGURES_OUT (default
 # docs/figures), FIGURES_TIME_LIMIT (seconds per solve, default 10),
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
-# subset of: characters relax backends stress_noise scaling stress_families).
+# subset of: characters relax backends stress_noise scaling stress_families
+# ipopt_starts).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${FIGURES_BUILD_DIR:-build}
@@ -309,9 +310,53 @@ EOF
   done
 }
 
+# --- ipopt: cold and warm start, MUMPS orderings ----------------------------------
+ipopt_starts() {
+  step "ipopt-starts.md: start=scene vs start=alternating-gn vs alternating-gn; MUMPS orderings"
+  local tower10="$work/tower-10.scene.json" tower40="$work/tower-40.scene.json"
+  "$tg" generate tower --layers 10 --struts-per-layer 8 --cables 500 --gravity --out "$tower10" >/dev/null
+  "$tg" generate tower --layers 40 --struts-per-layer 8 --cables 2000 --gravity --out "$tower40" >/dev/null
+  header "$out/ipopt-starts.md" "ipopt: where it starts, and the MUMPS ordering" \
+    "tensegrity solve SCENE --solver ipopt [--option start=alternating-gn] [--option mumps_pivot_order=N] --time-limit $limit"
+  run_row() {  # run_row LABEL SCENE SOLVER OPTION...: one table row from the solution file
+    local label=$1 scene=$2 solver=$3
+    shift 3
+    local opts=()
+    for o in "$@"; do opts+=(--option "$o"); done
+    "$tg" solve "$scene" --solver "$solver" "${opts[@]}" --time-limit "$limit" --out "$work/s.json" >/dev/null 2>&1 || true
+    "$py" - "$work/s.json" "$label" <<'EOF2'
+import json, sys
+d = json.load(open(sys.argv[1])); s = d["stats"]
+print(f"| {sys.argv[2]} | {d['status']} | {s['iterations']} | {s['seconds']:.3g} | {s['geometry_change']:.4g} |")
+EOF2
+  }
+  {
+    echo "Solver's own seconds, one run each. Geometry change in m."
+    echo
+    echo "| scene, configuration | status | iterations | seconds | geometry change |"
+    echo "|---|---|---:|---:|---:|"
+    for scene in data/reference/prism-3-gravity.scene.json data/reference/prism-6-gravity.scene.json \
+                 data/reference/prism-12-gravity.scene.json "$tower10"; do
+      name=$(basename "$scene" .scene.json)
+      [ "$scene" = "$tower10" ] && name="tower, 10 layers x 8 struts, 500 cables, gravity"
+      run_row "$name: ipopt start=scene" "$scene" ipopt
+      run_row "$name: ipopt start=alternating-gn" "$scene" ipopt start=alternating-gn
+      run_row "$name: alternating-gn" "$scene" alternating-gn
+    done
+    echo
+    echo "MUMPS orderings on the 40-layer gravity tower (2,320 elements), ipopt start=alternating-gn:"
+    echo
+    echo "| mumps_pivot_order | status | iterations | seconds | geometry change |"
+    echo "|---|---|---:|---:|---:|"
+    for order in 0 2 4 5 6 7; do
+      run_row "$order" "$tower40" ipopt start=alternating-gn "mumps_pivot_order=$order"
+    done
+  } >>"$out/ipopt-starts.md"
+}
+
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters relax backends stress_noise scaling stress_families}; do
+for section in ${FIGURES_SECTIONS:-characters relax backends stress_noise scaling stress_families ipopt_starts}; do
   "$section"
 done
 step "done; figures in $out"

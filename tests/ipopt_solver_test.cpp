@@ -163,3 +163,24 @@ TEST(IpoptSolver, GravityWithoutSupportIsInfeasible) {
 
 }  // namespace
 }  // namespace tensegrity
+
+TEST(IpoptSolver, StartOptionIsCheckedAndAWarmStartReachesTheSameOptimum) {
+  const IpoptSolver solver;
+  SolveOptions bad;
+  bad.backend_options = {{"start", "somewhere"}};
+  EXPECT_THROW(solver.ValidateOptions(bad), InputError);
+
+  // A perturbed prism without gravity has one local optimum near the scene:
+  // from alternating-gn's equilibrium Ipopt must end where the cold start ends.
+  const Structure s = perturbed(prism(5), 0.05, 7u);
+  const SolveResult cold = solver.Solve(s, no_shortcut(), DriverControls{false});
+  SolveOptions warm_options = no_shortcut();
+  warm_options.backend_options = {{"start", "alternating-gn"}};
+  const SolveResult warm = solver.Solve(s, warm_options, DriverControls{false});
+  ASSERT_EQ(cold.status, Status::Converged) << cold.message;
+  ASSERT_EQ(warm.status, Status::Converged) << warm.message;
+  EXPECT_NE(warm.message.find("alternating-gn"), std::string::npos) << warm.message;
+  EXPECT_NEAR(warm.stats.geometry_change, cold.stats.geometry_change, 1e-6 * cold.stats.geometry_change);
+  EXPECT_GT(cold.stats.geometry_change, 0.0);
+  std::printf("cold %d iterations, warm %d iterations\n", cold.stats.iterations, warm.stats.iterations);
+}
