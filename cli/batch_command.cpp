@@ -1,92 +1,54 @@
-// tensegrity batch SCENE... [--solver NAME] [--jobs N] --out-dir DIR [--tol T]
-//     [--time-limit S] [--max-iterations N] [--no-skip] [--measure-speedup] [--trace]
+// tensegrity batch SCENE|DIR... --out-dir DIR [--solver NAME[,NAME...]] [--jobs N] [--tol T]
+//     [--time-limit S] [--kill-after S] [--max-iterations N] [--no-skip] [--measure-speedup]
+//     [--trace] [--json FILE|-]
 //
-// Solves independent scenes in parallel, one scene per thread at a time, each
-// solve single-threaded (OpenBLAS under MUMPS is told to use one thread, so
-// N jobs use N cores and no more). Writes DIR/<scene>.solution.json (and
-// DIR/<scene>.trace.csv with --trace), prints one line per scene and a summary
-// with the wall-clock time, the process CPU time and the speed-up:
-// --measure-speedup first solves everything with one job and reports
-// serial wall time / parallel wall time; without it the summary gives the sum
-// of the solve times over the wall time (an estimate that other load on the machine inflates).
-// Exit status: 0 if every scene converged, 1 otherwise, 2 bad input (all scenes
-// are read before anything is solved).
-#include <dlfcn.h>
-
-#include <atomic>
-#include <chrono>
+// Solves independent (scene, backend) jobs in forked worker processes, the
+// longest estimated first, each solve single-threaded (one BLAS thread), so N
+// workers use N cores, Ipopt included (cli/process_pool.hpp). A worker writes
+// its solution file with the same functions as `solve`, so the files are the
+// ones `solve` writes. Prints one line per job and a summary with the wall
+// time, the CPU time of every process and the speed-up (sum of the jobs' wall
+// times over the total wall time; with --measure-speedup also the wall time of
+// one worker alone). Exit status: 0 every job converged, 1 otherwise, 2 bad
+// usage, or some scene files could not be read (each named on stderr and
+// skipped; the others are still solved).
+#include <algorithm>
 #include <cstdio>
-#include <cstdlib>
-#include <ctime>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
-#include <mutex>
+#include <nlohmann/json.hpp>
 #include <string>
-#include <thread>
 
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
+#include "cli/process_pool.hpp"
+#include "cli/batch_jobs.hpp"
 #include "model/errors.hpp"
+#include "model/json_text.hpp"
 #include "model/scene_io.hpp"
 
 namespace tensegrity::cli {
 
 namespace {
+
 struct BatchArgs {
   std::vector<std::string> scenes;
-  std::string solver;
+  std::vector<std::string> solvers;
   std::string out_dir;
-  int jobs = 2;
+  std::string json;
+  int jobs = 0;  // 0: every available core
   double tol = 1e-8;
   int max_iterations = 0;
   double time_limit = 120.0;
+  double kill_after = 0.0;  // 0: 2 * time_limit + 5
   bool no_skip = false;
   bool measure_speedup = false;
   bool trace = false;
 };
 
-void one_blas_thread() {
-  setenv("OPENBLAS_NUM_THREADS", "1", 1);
-  setenv("OMP_NUM_THREADS", "1", 1);
-  // The BLAS read its environment when it was loaded; tell it again.
-  for (const char* symbol : {"openblas_set_num_threads", "omp_set_num_threads"})
-    if (auto* set = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, symbol))) set(1);
-}
-
-double process_cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
-struct PassResult {
-  std::vector<SolveResult> results;
-  double wall_s = 0.0;
-  double cpu_s = 0.0;
-};
-
-PassResult solve_all(const std::vector<Structure>& scenes, const std::string& solver_name,
-                     const SolveOptions& options, const DriverControls& controls, int jobs) {
-  PassResult pass;
-  pass.results.resize(scenes.size());
-  std::atomic<std::size_t> next{0};
-  auto worker = [&] {
-    const auto solver = make_solver(solver_name);  // one instance per thread: no shared state
-    for (std::size_t i = next++; i < scenes.size(); i = next++) pass.results[i] = solver->Solve(scenes[i], options, controls);
-  };
-  const double cpu0 = process_cpu_seconds();
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::thread> threads;
-  const int n = std::max(1, std::min<int>(jobs, static_cast<int>(scenes.size())));
-  for (int k = 0; k < n; ++k) threads.emplace_back(worker);
-  for (auto& t : threads) t.join();
-  pass.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  pass.cpu_s = process_cpu_seconds() - cpu0;
-  return pass;
-}
-
-std::string stem(const std::string& path) {
+std::string scene_stem(const std::string& path) {
   std::string name = std::filesystem::path(path).filename().string();
   for (const char* suffix : {".scene.json", ".json"}) {
     const std::string s(suffix);
@@ -97,73 +59,161 @@ std::string stem(const std::string& path) {
   }
   return name;
 }
+
+// The scene files named on the command line: a folder stands for its
+// *.scene.json files (sorted); anything else is taken as a file.
+std::vector<std::string> expand_scene_arguments(const std::vector<std::string>& items) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> files;
+  for (const std::string& item : items) {
+    std::error_code ec;
+    if (!fs::is_directory(item, ec)) {
+      files.push_back(item);
+      continue;
+    }
+    std::vector<std::string> found;
+    for (const auto& entry : fs::directory_iterator(item, ec)) {
+      const std::string name = entry.path().filename().string();
+      if (name.size() > 11 && name.ends_with(".scene.json")) found.push_back(entry.path().string());
+    }
+    if (ec || found.empty()) {
+      files.push_back(item);  // reading it fails and names the folder
+      continue;
+    }
+    std::sort(found.begin(), found.end());
+    files.insert(files.end(), found.begin(), found.end());
+  }
+  return files;
+}
+
+struct ReadableScenes {
+  std::vector<std::string> paths, stems;
+  std::vector<Structure> scenes;
+  std::vector<std::pair<std::string, std::string>> skipped;  // file, reason
+};
+
+// Reads every scene; one that cannot be read is named on stderr and skipped.
+ReadableScenes read_scenes(const std::vector<std::string>& files) {
+  ReadableScenes r;
+  for (const std::string& path : files) {
+    try {
+      Structure s = read_scene_file(path);
+      r.scenes.push_back(std::move(s));
+    } catch (const InputError& e) {
+      std::cerr << "tensegrity: " << e.what() << "\n";
+      r.skipped.emplace_back(path, e.what());
+      continue;
+    }
+    r.paths.push_back(path);
+    r.stems.push_back(scene_stem(path));
+    for (std::size_t k = 0; k + 1 < r.stems.size(); ++k)
+      if (r.stems[k] == r.stems.back())
+        throw InputError(path, "scene", "two scenes would write the same solution file " + r.stems.back());
+  }
+  return r;
+}
+
 }  // namespace
 
 void register_batch_command(CLI::App& app, CommandRunner& run) {
   auto args = std::make_shared<BatchArgs>();
-  auto* cmd = app.add_subcommand("batch", "Solve independent scenes in parallel (one thread per job) and report the speed-up");
-  cmd->add_option("scenes", args->scenes, "Scene files (*.scene.json)")->required();
-  cmd->add_option("--solver", args->solver, "Backend name (see `tensegrity solvers`); default: the recommended one");
-  cmd->add_option("--jobs", args->jobs, "Scenes solved at once (threads), 1..256");
-  cmd->add_option("--out-dir", args->out_dir, "Folder for the solution files")->required();
+  auto* cmd = app.add_subcommand(
+      "batch", "Solve independent scenes in parallel worker processes and report the speed-up");
+  cmd->add_option("scenes", args->scenes, "Scene files (*.scene.json), or folders of them")->required();
+  cmd->add_option("--solver", args->solvers,
+                  "Backend names, comma-separated or repeated: every scene with each (see `tensegrity solvers`); "
+                  "default: the recommended one")
+      ->delimiter(',');
+  cmd->add_option("--jobs", args->jobs, "Worker processes, 1..256 (default: the available cores)");
+  cmd->add_option("--out-dir", args->out_dir,
+                  "Folder for the solution files (one subfolder per backend when several are given)")
+      ->required();
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
   cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget per scene"));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds per scene");
+  cmd->add_option("--kill-after", args->kill_after,
+                  "A solve still running after this many seconds is killed and reported as time_limit "
+                  "(default: twice --time-limit plus 5)");
   cmd->add_flag("--no-skip", args->no_skip, "Do not return early when a scene is already in equilibrium");
-  cmd->add_flag("--measure-speedup", args->measure_speedup, "First solve everything with one job, then report serial/parallel wall time");
+  cmd->add_flag("--measure-speedup", args->measure_speedup,
+                "First solve everything with one worker, then report serial/parallel wall time");
   cmd->add_flag("--trace", args->trace, "Also write <scene>.trace.csv per scene");
+  cmd->add_option("--json", args->json,
+                  "Also write the whole report as one JSON object to this file (- : standard output, and the "
+                  "table goes to standard error)");
   cmd->callback([args, &run] {
     run = [args] {
+      if (args->jobs == 0) args->jobs = available_cores();
       if (args->jobs < 1 || args->jobs > 256) throw InputError("command line", "--jobs", "must be within 1..256");
-      SolveOptions options;
-      options.tolerance = args->tol;
-      options.max_iterations = args->max_iterations;
-      options.time_limit_s = args->time_limit;
-      DriverControls controls;
-      controls.skip_if_in_equilibrium = !args->no_skip;
-      const std::string name(checked_solver(args->solver, options)->name());
-      std::vector<Structure> scenes;
-      std::vector<std::string> stems;
-      for (const auto& path : args->scenes) {
-        scenes.push_back(read_scene_file(path));
-        stems.push_back(stem(path));
-        for (std::size_t k = 0; k + 1 < stems.size(); ++k)
-          if (stems[k] == stems.back())
-            throw InputError(path, "scene", "two scenes would write the same solution file " + stems.back());
+      SolveJobSettings settings;
+      settings.options.tolerance = args->tol;
+      settings.options.max_iterations = args->max_iterations;
+      settings.options.time_limit_s = args->time_limit;
+      settings.controls.skip_if_in_equilibrium = !args->no_skip;
+      settings.kill_after_s = args->kill_after > 0.0 ? args->kill_after : 2.0 * args->time_limit + 5.0;
+      if (!(args->kill_after >= 0.0)) throw InputError("command line", "--kill-after", "must be a number >= 0");
+      std::vector<std::string> solver_names = args->solvers;
+      if (solver_names.empty()) solver_names.push_back("");
+      for (std::string& name : solver_names) name = std::string(checked_solver(name, settings.options)->name());
+      for (std::size_t k = solver_names.size(); k-- > 1;)  // each backend once, in the given order
+        if (std::find(solver_names.begin(), solver_names.begin() + static_cast<std::ptrdiff_t>(k), solver_names[k]) !=
+            solver_names.begin() + static_cast<std::ptrdiff_t>(k))
+          solver_names.erase(solver_names.begin() + static_cast<std::ptrdiff_t>(k));
+
+      ReadableScenes input = read_scenes(expand_scene_arguments(args->scenes));
+      if (input.scenes.empty()) {
+        if (input.skipped.empty()) throw InputError("command line", "scenes", "no *.scene.json file given");
+        return 2;
       }
+      const bool per_solver_folder = solver_names.size() > 1;
+      std::vector<SolveJob> jobs;
+      for (std::size_t i = 0; i < input.scenes.size(); ++i)
+        for (const std::string& solver : solver_names) {
+          SolveJob job;
+          job.scene = &input.scenes[i];
+          job.scene_name = input.stems[i];
+          job.scene_file = input.paths[i];
+          job.solver = solver;
+          const std::string folder = per_solver_folder ? args->out_dir + "/" + solver : args->out_dir;
+          job.solution_file = folder + "/" + input.stems[i] + ".solution.json";
+          if (args->trace) job.trace_file = folder + "/" + input.stems[i] + ".trace.csv";
+          jobs.push_back(std::move(job));
+        }
       std::filesystem::create_directories(args->out_dir);
-      one_blas_thread();
+      if (per_solver_folder)
+        for (const std::string& solver : solver_names) std::filesystem::create_directories(args->out_dir + "/" + solver);
 
-      PassResult serial;
-      if (args->measure_speedup && args->jobs > 1) {
-        std::cerr << "batch: " << scenes.size() << " scenes with " << name << ", 1 job (for the speed-up)...\n";
-        serial = solve_all(scenes, name, options, controls, 1);
+      settings.workers = args->jobs;
+      const std::string what = solver_names.size() == 1
+                                   ? std::to_string(jobs.size()) + " scenes with " + solver_names.front()
+                                   : std::to_string(jobs.size()) + " solves (" + std::to_string(input.scenes.size()) +
+                                         " scenes x " + std::to_string(solver_names.size()) + " backends)";
+      SolveJobsRun serial;
+      const bool measure = args->measure_speedup && args->jobs > 1;
+      if (measure) {
+        std::cerr << "batch: " << what << ", 1 job (for the speed-up)...\n";
+        SolveJobSettings one = settings;
+        one.workers = 1;
+        one.write_files = false;
+        serial = run_solve_jobs(jobs, one);
       }
-      std::cerr << "batch: " << scenes.size() << " scenes with " << name << ", " << args->jobs << " jobs...\n";
-      const PassResult parallel = solve_all(scenes, name, options, controls, args->jobs);
+      std::cerr << "batch: " << what << ", " << args->jobs << " jobs...\n";
+      const SolveJobsRun parallel = run_solve_jobs(jobs, settings);
 
-      int failures = 0;
-      double sum_s = 0.0;
-      std::printf("%-28s %-15s %6s %10s %12s %12s\n", "scene", "status", "iters", "seconds", "rel_residual",
-                  "geom_change");
-      for (std::size_t i = 0; i < scenes.size(); ++i) {
-        const SolveResult& r = parallel.results[i];
-        sum_s += r.stats.seconds;
-        if (r.status != Status::Converged) ++failures;
-        write_solution_file(to_solution(r, scenes[i], name), args->out_dir + "/" + stems[i] + ".solution.json");
-        if (args->trace) write_trace_csv(args->out_dir + "/" + stems[i] + ".trace.csv", r.trace);
-        std::printf("%-28s %-15s %6d %10.4f %12.3g %12.4g\n", stems[i].c_str(), std::string(to_string(r.status)).c_str(),
-                    r.stats.iterations, r.stats.seconds, r.stats.relative_residual, r.stats.geometry_change);
-      }
-      std::printf("jobs %d: wall %.3f s, process CPU %.3f s (%.2f cores busy), sum of solve times %.3f s\n",
-                  args->jobs, parallel.wall_s, parallel.cpu_s, parallel.cpu_s / std::max(1e-9, parallel.wall_s), sum_s);
-      if (args->measure_speedup && args->jobs > 1)
-        std::printf("jobs 1: wall %.3f s, process CPU %.3f s\nmeasured speed-up (serial wall / parallel wall): %.2f\n",
-                    serial.wall_s, serial.cpu_s, serial.wall_s / std::max(1e-9, parallel.wall_s));
-      else
-        std::printf("speed-up estimate (sum of solve times / wall): %.2f\n", sum_s / std::max(1e-9, parallel.wall_s));
-      std::printf("converged %zu of %zu\n", scenes.size() - failures, scenes.size());
-      return failures == 0 ? 0 : 1;
+      BatchReport report;
+      report.jobs = &jobs;
+      report.run = &parallel;
+      report.serial = measure ? &serial : nullptr;
+      report.workers = args->jobs;
+      report.skipped = input.skipped;
+      report.settings = &settings;
+      const bool json_to_stdout = args->json == "-";
+      std::FILE* table = json_to_stdout ? stderr : stdout;
+      print_batch_table(report, table, solver_names.size() > 1);
+      if (!args->json.empty())
+        write_text_file_atomically(args->json, to_json_text(batch_report_to_json(report)) + "\n");
+      if (!input.skipped.empty()) return 2;
+      return parallel.converged == jobs.size() ? 0 : 1;
     };
   });
 }

@@ -2,17 +2,15 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
-#include <mutex>
 #include <random>
 #include <set>
-#include <thread>
 
+#include "cli/process_pool.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
@@ -134,80 +132,132 @@ StressReport run_stress_test(const StressTestOptions& options) {
 
   StressReport report;
   report.options = options;
-  const int total = static_cast<int>(cases.size() * solvers.size());
+  const std::size_t total = cases.size() * solvers.size();
   report.trials.resize(total);
-  std::atomic<int> next{0}, done{0}, failures{0};
   const double overrun_s = 2.0 * options.time_limit_s + 5.0;
-
-  auto work = [&] {
-    std::map<std::string, std::unique_ptr<Solver>> instances;
-    for (;;) {
-      const int k = next.fetch_add(1);
-      if (k >= total) return;
-      const Case& c = cases[k / solvers.size()];
-      const std::string& solver_name = solvers[k % solvers.size()];
-      StressTrial& t = report.trials[k];
-      t.scene = c.base->name;
-      t.family = c.family;
-      t.level = c.level;
-      t.trial = c.trial;
-      t.solver = solver_name;
-      if (c.rejected) {
-        t.rejected = true;
-        t.message = c.rejection;
-        done.fetch_add(1);
-        continue;
-      }
-      auto& solver = instances[solver_name];
-      if (!solver) solver = make_solver(solver_name);
-      const auto start = Clock::now();
-      SolveResult r;
-      try {
-        r = solve_scene(*solver, c.scene, solve_options);
-      } catch (const std::exception& e) {
-        r = SolveResult{};
-        r.status = Status::NumericalError;
-        r.message = std::string("exception escaped the driver: ") + e.what();
-        r.positions = c.scene.positions;
-        r.forces = Eigen::VectorXd::Zero(c.scene.num_elements());
-      }
-      t.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-      t.overran = t.seconds > overrun_s;
-      t.status = r.status;
-      t.finite = finite_result(r);
-      const Verification v = verify(c.scene, r.positions, r.forces, options.tolerance);
-      t.verified = v.ok;
-      t.relative_residual = v.relative_residual;
-      t.message = r.message;
-      Digest d;
-      d.integer(static_cast<std::uint64_t>(r.status));
-      d.bytes(r.positions.data(), sizeof(double) * r.positions.size());
-      d.bytes(r.forces.data(), sizeof(double) * r.forces.size());
-      t.digest = d.h;
-      if (r.status != Status::Converged || !t.verified || !t.finite) {
-        failures.fetch_add(1);
-        if (!options.failures_dir.empty()) {
-          try {
-            write_scene_file(c.scene, options.failures_dir + "/" + t.scene + "_" + t.family + "_" + t.level +
-                                          "_t" + std::to_string(t.trial) + "_" + t.solver + ".scene.json");
-          } catch (const std::exception& e) {
-            t.message += std::string(" (scene not saved: ") + e.what() + ")";
-          }
-        }
-      }
-      done.fetch_add(1);
+  std::vector<std::size_t> job_trial;  // the trial of each job (rejected cases are not run)
+  std::vector<double> cost;
+  for (std::size_t k = 0; k < total; ++k) {
+    const Case& c = cases[k / solvers.size()];
+    StressTrial& t = report.trials[k];
+    t.scene = c.base->name;
+    t.family = c.family;
+    t.level = c.level;
+    t.trial = c.trial;
+    t.solver = solvers[k % solvers.size()];
+    if (c.rejected) {
+      t.rejected = true;
+      t.message = c.rejection;
+      continue;
     }
+    job_trial.push_back(k);
+    cost.push_back(estimated_solve_cost(t.solver, c.scene.num_elements()));
+  }
+
+  // Runs in a worker process: the fields of the trial that the solve decides.
+  auto solve_trial = [&](std::size_t job) {
+    const std::size_t k = job_trial[job];
+    const Case& c = cases[k / solvers.size()];
+    const std::string& solver_name = solvers[k % solvers.size()];
+    const auto solver = make_solver(solver_name);
+    const auto start = Clock::now();
+    SolveResult r;
+    try {
+      r = solve_scene(*solver, c.scene, solve_options);
+    } catch (const std::exception& e) {
+      r = SolveResult{};
+      r.status = Status::NumericalError;
+      r.message = std::string("exception escaped the driver: ") + e.what();
+      r.positions = c.scene.positions;
+      r.forces = Eigen::VectorXd::Zero(c.scene.num_elements());
+    }
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    const Verification v = verify(c.scene, r.positions, r.forces, options.tolerance);
+    Digest d;
+    d.integer(static_cast<std::uint64_t>(r.status));
+    d.bytes(r.positions.data(), sizeof(double) * r.positions.size());
+    d.bytes(r.forces.data(), sizeof(double) * r.forces.size());
+    const bool finite = finite_result(r);
+    std::string message = r.message;
+    if ((r.status != Status::Converged || !v.ok || !finite) && !options.failures_dir.empty()) {
+      const StressTrial& t = report.trials[k];
+      try {
+        write_scene_file(c.scene, options.failures_dir + "/" + t.scene + "_" + t.family + "_" + t.level + "_t" +
+                                      std::to_string(t.trial) + "_" + t.solver + ".scene.json");
+      } catch (const std::exception& e) {
+        message += std::string(" (scene not saved: ") + e.what() + ")";
+      }
+    }
+    nlohmann::json j = nlohmann::json::object();
+    j["status"] = to_string(r.status);
+    j["seconds"] = seconds;
+    j["iterations"] = r.stats.iterations;
+    j["geometry_change"] = r.stats.geometry_change;
+    // Not finite: JSON has no such number; the flag below says so.
+    j["relative_residual"] = std::isfinite(v.relative_residual) ? nlohmann::json(v.relative_residual) : nlohmann::json();
+    j["verified"] = v.ok;
+    j["finite"] = finite;
+    j["digest"] = d.h;
+    j["message"] = message;
+    return j.dump();
   };
 
-  std::vector<std::thread> pool;
-  for (int j = 0; j < std::min(options.jobs, std::max(1, total)); ++j) pool.emplace_back(work);
-  while (done.load() < total) {
-    if (options.progress) options.progress(done.load(), total, failures.load());
-    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  // Fills a trial from its worker's answer, or from how the worker ended.
+  auto record = [&](std::size_t job, const JobOutcome& o) {
+    const std::size_t k = job_trial[job];
+    const Case& c = cases[k / solvers.size()];
+    StressTrial& t = report.trials[k];
+    t.wall_seconds = o.wall_seconds;
+    if (o.end == JobEnd::Finished) {
+      const nlohmann::json j = nlohmann::json::parse(o.result);
+      t.status = status_from_string(j.at("status").get<std::string>()).value_or(Status::NumericalError);
+      t.seconds = j.at("seconds").get<double>();
+      t.iterations = j.at("iterations").get<int>();
+      t.geometry_change = j.at("geometry_change").get<double>();
+      t.relative_residual = j.at("relative_residual").is_null() ? NAN : j.at("relative_residual").get<double>();
+      t.verified = j.at("verified").get<bool>();
+      t.finite = j.at("finite").get<bool>();
+      t.digest = j.at("digest").get<std::uint64_t>();
+      t.message = j.at("message").get<std::string>();
+    } else {
+      t.status = o.end == JobEnd::Killed ? Status::TimeLimit : Status::NumericalError;
+      t.seconds = o.wall_seconds;
+      t.crashed = o.end == JobEnd::Crashed;
+      t.verified = false;
+      t.relative_residual = verify(c.scene, c.scene.positions, Eigen::VectorXd::Zero(c.scene.num_elements()),
+                                   options.tolerance).relative_residual;
+      t.message = o.reason;
+      Digest d;
+      d.integer(static_cast<std::uint64_t>(t.status));
+      t.digest = d.h;
+    }
+    t.overran = o.end == JobEnd::Killed || t.seconds > overrun_s;
+  };
+
+  use_one_blas_thread();
+  ProcessPoolOptions pool;
+  pool.workers = options.jobs;
+  pool.kill_after_s = overrun_s;
+  const std::vector<std::size_t> order = longest_first(cost);
+  if (options.measure_speedup && options.jobs > 1) {
+    ProcessPoolOptions one = pool;
+    one.workers = 1;
+    report.serial_wall_seconds = run_in_worker_processes(job_trial.size(), order, solve_trial, one).wall_seconds;
   }
-  for (std::thread& th : pool) th.join();
-  if (options.progress) options.progress(done.load(), total, failures.load());
+  int ended = static_cast<int>(total - job_trial.size()), failures = 0;
+  pool.on_job_end = [&](std::size_t job, const JobOutcome& o) {
+    record(job, o);
+    const StressTrial& t = report.trials[job_trial[job]];
+    if (t.status != Status::Converged || !t.verified || !t.finite) ++failures;
+    ++ended;
+    if (options.progress) options.progress(ended, static_cast<int>(total), failures);
+  };
+  if (options.progress) options.progress(ended, static_cast<int>(total), failures);
+  const ProcessPoolRun run = run_in_worker_processes(job_trial.size(), order, solve_trial, pool);
+  report.cpu_seconds = run.cpu_seconds;
+  for (const JobOutcome& o : run.outcomes) report.sum_job_wall_seconds += o.wall_seconds;
   report.wall_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  report.pool_wall_seconds = run.wall_seconds;
   return report;
 }
 
@@ -220,7 +270,7 @@ json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr
 
 struct Cell {
   int trials = 0, rejected = 0, converged = 0, verified = 0, false_converged = 0, non_finite = 0;
-  int overran = 0, escaped = 0;
+  int overran = 0, escaped = 0, crashed = 0;
   double worst_converged_residual = 0.0;
   std::vector<double> seconds;
   std::map<std::string, int> statuses;
@@ -236,6 +286,7 @@ struct Cell {
     ++statuses[std::string(to_string(t.status))];
     if (!t.finite) ++non_finite;
     if (t.overran) ++overran;
+    if (t.crashed) ++crashed;
     if (t.message.rfind("exception escaped", 0) == 0) ++escaped;
     if (t.status == Status::Converged) {
       ++converged;
@@ -261,6 +312,7 @@ struct Cell {
     j["worst_relative_residual"] = number_or_null(worst_converged_residual);
     j["non_finite"] = non_finite;
     j["exceptions"] = escaped;
+    j["crashed"] = crashed;
     j["statuses"] = statuses;
     if (with_times) {
       std::vector<double> s = seconds;
@@ -376,8 +428,104 @@ json stress_report_to_json(const StressReport& report) {
       rejected.push_back(t.scene + "/" + t.family + "/" + t.level + "/" + std::to_string(t.trial) + ": " +
                          t.message);
   j["rejected_inputs"] = rejected;
+
+  // Every solve, in the report's fixed order.
+  json trials = json::array();
+  std::map<std::string, int> statuses;
+  int solved = 0, converged = 0, crashed = 0;
+  for (const StressTrial& t : report.trials) {
+    if (t.rejected) continue;
+    json e = json::object();
+    e["scene"] = t.scene;
+    e["family"] = t.family;
+    e["level"] = t.level;
+    e["trial"] = t.trial;
+    e["solver"] = t.solver;
+    e["status"] = to_string(t.status);
+    e["iterations"] = t.iterations;
+    if (times) {
+      e["seconds"] = t.seconds;
+      e["wall_seconds"] = t.wall_seconds;
+    }
+    e["geometry_change"] = number_or_null(t.geometry_change);
+    e["relative_residual"] = number_or_null(t.relative_residual);
+    e["verified"] = t.verified;
+    if (t.crashed) e["crashed"] = true;
+    trials.push_back(e);
+    ++solved;
+    ++statuses[std::string(to_string(t.status))];
+    if (t.status == Status::Converged) ++converged;
+    if (t.crashed) ++crashed;
+  }
+  j["trials"] = trials;
+  json totals = json::object();
+  totals["solves"] = solved;
+  totals["rejected_inputs"] = static_cast<int>(report.trials.size()) - solved;
+  totals["converged"] = converged;
+  totals["crashed"] = crashed;
+  totals["statuses"] = statuses;
+  if (times) {
+    totals["wall_seconds"] = report.pool_wall_seconds;
+    totals["cpu_seconds"] = report.cpu_seconds;
+    totals["sum_job_wall_seconds"] = report.sum_job_wall_seconds;
+    json speedup = json::object();
+    speedup["workers"] = o.jobs;
+    speedup["estimate"] = report.sum_job_wall_seconds / std::max(1e-9, report.pool_wall_seconds);
+    if (report.serial_wall_seconds > 0.0) {
+      speedup["serial_wall_seconds"] = report.serial_wall_seconds;
+      speedup["measured"] = report.serial_wall_seconds / std::max(1e-9, report.pool_wall_seconds);
+    }
+    j["speedup"] = speedup;
+  }
+  j["totals"] = totals;
   if (times) j["wall_seconds"] = report.wall_seconds;
   return j;
+}
+
+void print_stress_table(const StressReport& report, std::FILE* out) {
+  // Statuses in the order of the contract, then the rest of the row.
+  const Status columns[] = {Status::Converged, Status::Stalled, Status::MaxIterations, Status::TimeLimit,
+                            Status::NumericalError, Status::Infeasible};
+  struct Row {
+    int trials = 0, rejected = 0, crashed = 0;
+    std::map<Status, int> counts;
+    std::vector<double> seconds;
+  };
+  std::map<std::string, Row> rows;
+  for (const StressTrial& t : report.trials) {
+    Row& r = rows[t.solver];
+    if (t.rejected) {
+      ++r.rejected;
+      continue;
+    }
+    ++r.trials;
+    ++r.counts[t.status];
+    if (t.crashed) ++r.crashed;
+    r.seconds.push_back(t.seconds);
+  }
+  std::fprintf(out, "%-16s %6s", "backend", "trials");
+  for (const Status s : columns) std::fprintf(out, " %15s", std::string(to_string(s)).c_str());
+  std::fprintf(out, " %8s %7s %10s\n", "rejected", "crashed", "median_s");
+  for (auto& [solver, r] : rows) {
+    std::fprintf(out, "%-16s %6d", solver.c_str(), r.trials);
+    for (const Status s : columns) std::fprintf(out, " %15d", r.counts[s]);
+    std::sort(r.seconds.begin(), r.seconds.end());
+    double median = 0.0;
+    if (!r.seconds.empty()) {
+      const std::size_t n = r.seconds.size();
+      median = n % 2 == 1 ? r.seconds[n / 2] : 0.5 * (r.seconds[n / 2 - 1] + r.seconds[n / 2]);
+    }
+    std::fprintf(out, " %8d %7d %10.4f\n", r.rejected, r.crashed, median);
+  }
+  std::fprintf(out, "jobs %d: wall %.3f s, process CPU %.3f s (%.2f cores busy), sum of job wall times %.3f s\n",
+               report.options.jobs, report.pool_wall_seconds, report.cpu_seconds,
+               report.cpu_seconds / std::max(1e-9, report.pool_wall_seconds), report.sum_job_wall_seconds);
+  if (report.serial_wall_seconds > 0.0)
+    std::fprintf(out, "jobs 1: wall %.3f s\nmeasured speed-up (serial wall / parallel wall): %.2f\n",
+                 report.serial_wall_seconds, report.serial_wall_seconds / std::max(1e-9, report.pool_wall_seconds));
+  std::fprintf(out, "speed-up estimate (sum of job wall times / wall): %.2f\n",
+               report.sum_job_wall_seconds / std::max(1e-9, report.pool_wall_seconds));
+  std::fflush(out);
 }
 
 }  // namespace tensegrity::cli

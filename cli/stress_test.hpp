@@ -1,12 +1,14 @@
 #pragma once
 // The numerical stress test behind `tensegrity stress-test` (docs/ROBUSTNESS.md):
 // seeded families of perturbed scenes built from every benchmark scene and
-// character, solved by every chosen backend on a pool of threads, each result
+// character, solved by every chosen backend in worker processes
+// (cli/process_pool.hpp), the longest estimated first, each result
 // re-checked independently with model/verify, and summarised per backend and
 // family (and per level of the family's perturbation).
 //
 // The scene families are scenes/families.hpp.
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -25,8 +27,9 @@ struct StressTestOptions {
   std::vector<std::string> families;  // empty = all
   int trials = 2;                     // per scene, family and level
   std::uint64_t seed = 1;
-  int jobs = 2;
+  int jobs = 2;                       // worker processes
   double time_limit_s = 20.0;         // per solve
+  bool measure_speedup = false;       // first run everything on one worker, for the serial wall time
   double tolerance = 1e-8;
   // Backend options (`--option key=value`) given to every solver of the run;
   // each solver must accept them all (InputError otherwise).
@@ -50,8 +53,12 @@ struct StressTrial {
   bool verified = false;       // independent re-check with model/verify passes
   bool finite = true;          // no non-finite number in positions, forces, stats or trace
   double relative_residual = 0.0;
-  double seconds = 0.0;
-  bool overran = false;        // took longer than twice the time limit plus 5 s
+  double seconds = 0.0;        // of the solve, measured in its worker
+  double wall_seconds = 0.0;   // of the job, as the coordinating process saw it
+  int iterations = 0;
+  double geometry_change = 0.0;  // m
+  bool overran = false;        // took longer than twice the time limit plus 5 s (its worker is killed then)
+  bool crashed = false;        // its worker process died (the status is numerical_error)
   std::uint64_t digest = 0;    // of status, positions and forces (bits)
   std::string message;
 };
@@ -59,7 +66,11 @@ struct StressTrial {
 struct StressReport {
   StressTestOptions options;
   std::vector<StressTrial> trials;  // in a fixed order (scene, family, level, trial, solver)
-  double wall_seconds = 0.0;
+  double wall_seconds = 0.0;        // the whole run, building the scenes included
+  double pool_wall_seconds = 0.0;   // the solves
+  double cpu_seconds = 0.0;         // of every process, during the solves
+  double sum_job_wall_seconds = 0.0;
+  double serial_wall_seconds = 0.0;  // of the solves on one worker, when measured (else 0)
 };
 
 // Throws InputError for unknown scene, family or solver names.
@@ -68,5 +79,9 @@ StressReport run_stress_test(const StressTestOptions& options);
 // The report file; with options.with_times false it holds no timing and is
 // bit-identical for the same options whatever the thread count.
 nlohmann::json stress_report_to_json(const StressReport& report);
+
+// Per backend: trials, the count of each status, rejected inputs, crashed
+// workers and the median seconds of a solve; then the speed-up.
+void print_stress_table(const StressReport& report, std::FILE* out);
 
 }  // namespace tensegrity::cli

@@ -1,9 +1,10 @@
 // tensegrity stress-test [--scenes ...] [--solvers ...] [--families ...] [--trials N] [--seed S]
 //                        [--jobs J] [--time-limit S] [--tol T] [--data DIR] [--scene FILE]...
-//                        [--no-times] --out REPORT.json
+//                        [--no-times] [--measure-speedup] --out|--json REPORT.json
 // Seeded families of perturbed benchmark scenes and characters, every chosen
-// backend on each, results re-verified and summarised (cli/stress_test.hpp).
-#include <dlfcn.h>
+// backend on each, results re-verified and summarised (cli/stress_test.hpp):
+// the JSON report to a file (or standard output), a table per backend to
+// standard output (standard error when the report goes there).
 #include <unistd.h>
 
 #include <cstdio>
@@ -14,6 +15,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
+#include "cli/process_pool.hpp"
 #include "cli/stress_test.hpp"
 #include "model/errors.hpp"
 #include "model/json_text.hpp"
@@ -27,7 +29,7 @@ struct StressArgs {
   std::vector<std::string> scenes, solvers, families, scene_files, options;
   int trials = 2;
   std::uint64_t seed = 1;
-  int jobs = 2;
+  int jobs = 0;  // 0: every available core
   double time_limit = 20.0;
   double tol = 1e-8;
   std::string data;
@@ -35,17 +37,8 @@ struct StressArgs {
   std::string failures_dir;
   bool no_times = false;
   bool quiet = false;
+  bool measure_speedup = false;
 };
-
-// One BLAS thread per solve: the parallelism is across trials. The variables
-// are read when OpenBLAS and OpenMP start (before main), so the libraries are
-// also told directly when they are loaded.
-void use_one_blas_thread() {
-  ::setenv("OPENBLAS_NUM_THREADS", "1", 1);
-  ::setenv("OMP_NUM_THREADS", "1", 1);
-  if (auto* f = reinterpret_cast<void (*)(int)>(::dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(1);
-  if (auto* f = reinterpret_cast<void (*)(int)>(::dlsym(RTLD_DEFAULT, "omp_set_num_threads"))) f(1);
-}
 
 // The data folder: --data, else ./data, else data beside the program's folder.
 std::string find_data_dir(const std::string& given) {
@@ -95,7 +88,8 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
                   "near-coincident, near-parallel, mass, gravity-direction)");
   cmd->add_option("--trials", args->trials, "Trials per scene, family and level")->check(CLI::Range(1, 100000));
   cmd->add_option("--seed", args->seed, "Seed of every perturbation");
-  cmd->add_option("--jobs", args->jobs, "Threads solving in parallel")->check(CLI::Range(1, 256));
+  cmd->add_option("--jobs", args->jobs, "Worker processes solving in parallel (default: the available cores)")
+      ->check(CLI::Range(1, 256));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget per solve (s)");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged`");
   cmd->add_option("--option", args->options,
@@ -105,10 +99,13 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
                   "Write the scene of every failed trial into this (existing) folder, to reproduce it");
   cmd->add_flag("--no-times", args->no_times, "Leave timings out, so equal options give a bit-identical report");
   cmd->add_flag("--quiet", args->quiet, "No progress display");
-  cmd->add_option("--out", args->out, "Report file (JSON), - for standard output")->required();
+  cmd->add_flag("--measure-speedup", args->measure_speedup,
+                "First solve everything with one worker, then report serial/parallel wall time");
+  cmd->add_option("--out,--json", args->out,
+                  "Report file (JSON), - for standard output (the table then goes to standard error)")
+      ->required();
   cmd->callback([args, &run] {
     run = [args] {
-      use_one_blas_thread();
       StressTestOptions o;
       o.scenes = args->scenes;
       o.scene_files = args->scene_files;
@@ -116,7 +113,8 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
       o.families = args->families;
       o.trials = args->trials;
       o.seed = args->seed;
-      o.jobs = args->jobs;
+      o.jobs = args->jobs > 0 ? args->jobs : available_cores();
+      o.measure_speedup = args->measure_speedup;
       o.time_limit_s = args->time_limit;
       o.tolerance = args->tol;
       o.backend_options = parse_key_values(args->options);
@@ -134,11 +132,14 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
       }
       const StressReport report = run_stress_test(o);
       write_text_file_atomically(args->out, to_json_text(stress_report_to_json(report)) + "\n");
+      print_stress_table(report, args->out == "-" ? stderr : stdout);
       int bad = 0;
       for (const StressTrial& t : report.trials)
-        if (!t.rejected && (!t.finite || t.overran || (t.status == Status::Converged && !t.verified))) ++bad;
+        if (!t.rejected && (!t.finite || t.overran || t.crashed || (t.status == Status::Converged && !t.verified)))
+          ++bad;
       std::cerr << "stress-test: " << report.trials.size() << " solves; " << bad
-                << " with a non-finite number, an overrun or a converged result that does not verify\n";
+                << " with a non-finite number, an overrun, a crashed worker or a converged result that does not "
+                   "verify\n";
       return bad == 0 ? 0 : 1;
     };
   });

@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -235,7 +236,21 @@ TEST_F(CliHostileInput, UnreadablePaths) {
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   expect_every_command_rejects(fifo.string(), fifo.string());
   // A directory, a missing folder, a name too long for the file system.
-  expect_every_command_rejects((kSource / "tests" / "bad_inputs").string(), (kSource / "tests" / "bad_inputs").string());
+  // `batch` reads a folder's scene files instead, each bad one named on a line of its own.
+  const std::string folder = (kSource / "tests" / "bad_inputs").string();
+  std::vector<Role> without_batch;
+  for (const Role& role : roles())
+    if (role.name != "batch") without_batch.push_back(role);
+  expect_rejected_in(without_batch, folder, folder);
+  if (commands_.count("batch")) {
+    int scene_files = 0;
+    for (const auto& entry : fs::directory_iterator(folder)) scene_files += entry.path().string().ends_with(".scene.json");
+    const ProgramRun r = run({"batch", folder, "--out-dir", dir_.work().string()});
+    EXPECT_EQ(r.exit_status, 2) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), scene_files) << r.err.substr(0, 3000);
+    EXPECT_TRUE(r.out.empty()) << r.out.substr(0, 500);
+    EXPECT_TRUE(dir_.work_files().empty());
+  }
   const std::string missing = (base_ / "no-such-folder" / "x.scene.json").string();
   expect_every_command_rejects(missing, missing);
   const std::string too_long = (base_ / std::string(5000, 'n')).string() + ".scene.json";

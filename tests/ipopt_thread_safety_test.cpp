@@ -1,5 +1,5 @@
-// The ipopt backend called from two threads at once (as `tensegrity batch` and
-// `tensegrity stress-test --jobs 2` do): MUMPS, Ipopt's linear solver here, is
+// The ipopt backend called from two threads at once (as a library user, the
+// Python module or the local server may do): MUMPS, Ipopt's linear solver here, is
 // not thread-safe, so without the backend's lock this aborts or corrupts
 // results. Each concurrent result must equal, bit for bit, the serial one.
 #include <gtest/gtest.h>

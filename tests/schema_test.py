@@ -28,6 +28,7 @@ SCHEMA_OF_FORMAT = {
     "tensegrity-material": "material",
     "tensegrity-design": "design",
     "tensegrity-stress-report": "stress-report",
+    "tensegrity-batch-report": "batch-report",
 }
 
 
@@ -96,8 +97,13 @@ def program_outputs(source, binary, work):
          "--out", work / "prism-3.design.json"],
         ["relax", work / "prism-3.design.json", "--out", work / "prism-3.relaxed.solution.json"],
         ["batch", prism, prism_gravity, "--out-dir", work / "batch"],
+        ["batch", prism, prism_gravity, "--solver", "alternating-gn,ipopt", "--jobs", "2", "--measure-speedup",
+         "--out-dir", work / "batch-mixed", "--json", work / "batch-report.json"],
         ["stress-test", "--scenes", "prism-3", "--solvers", "alternating", "--families", "noise", "--trials", "1",
          "--no-times", "--quiet", "--data", data, "--out", work / "stress-report.json"],
+        ["stress-test", "--scenes", "prism-3", "--solvers", "alternating-gn,ipopt", "--families", "noise",
+         "--trials", "1", "--quiet", "--data", data, "--measure-speedup", "--jobs", "2",
+         "--json", work / "stress-report-timed.json"],
     ]
     written = []
     for args in runs:
@@ -144,6 +150,31 @@ def check_live(schemas, source):
     return 0
 
 
+def check_live_reports(schemas, written):
+    """The report schemas, too, must reject a broken copy of a report the program wrote."""
+    failures = 0
+    for path in written:
+        document = json.loads(pathlib.Path(path).read_text())
+        if document.get("format") not in ("tensegrity-batch-report", "tensegrity-stress-report"):
+            continue
+        key = "jobs" if document["format"] == "tensegrity-batch-report" else "trials"
+        if not document.get(key):
+            print(f"{path}: no {key} to break")
+            failures += 1
+            continue
+        for mutate in (
+            lambda d: d[key][0].__setitem__("status", "finished"),
+            lambda d: d[key][0].pop("solver"),
+            lambda d: d[key][0].__setitem__("iterations", -1),
+        ):
+            broken = copy.deepcopy(document)
+            mutate(broken)
+            if not schemas.errors(broken):
+                print(f"{path}: the {document['format']} schema accepted a broken copy")
+                failures += 1
+    return failures
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--source", type=pathlib.Path, required=True, help="the repository")
@@ -162,6 +193,7 @@ def main():
         with tempfile.TemporaryDirectory(prefix="tensegrity-schema-") as work:
             written = program_outputs(args.source, args.binary, pathlib.Path(work))
             failures += check_files(schemas, written)
+            failures += check_live_reports(schemas, written)
     print(f"schema_test: {len(shipped)} shipped files, {len(written)} program outputs, {failures} mismatches")
     return 1 if failures else 0
 
