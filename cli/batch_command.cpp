@@ -9,9 +9,10 @@
 // ones `solve` writes. Prints one line per job and a summary with the wall
 // time, the CPU time of every process and the speed-up (sum of the jobs' wall
 // times over the total wall time; with --measure-speedup also the wall time of
-// one worker alone). Exit status: 0 every job converged, 1 otherwise, 2 bad
-// usage, or some scene files could not be read (each named on stderr and
-// skipped; the others are still solved).
+// one worker alone). Exit status: 0 every job converged, 1 otherwise (also
+// when some scene files could not be read: each is named on stderr and
+// skipped, the others are solved and written, so the run has output), 2 bad
+// usage before anything runs.
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -212,8 +213,7 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       print_batch_table(report, table, solver_names.size() > 1);
       if (!args->json.empty())
         write_text_file_atomically(args->json, to_json_text(batch_report_to_json(report)) + "\n");
-      if (!input.skipped.empty()) return 2;
-      return parallel.converged == jobs.size() ? 0 : 1;
+      return input.skipped.empty() && parallel.converged == jobs.size() ? 0 : 1;
     };
   });
 }
