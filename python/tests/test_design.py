@@ -2,6 +2,7 @@
 same numbers bit for bit, the same messages."""
 import json
 import subprocess
+import threading
 
 import numpy as np
 import pytest
@@ -147,3 +148,27 @@ def test_bad_design_input_raises_the_program_message(cli, tmp_path):
     assert str(error.value) == _program_error(cli, tmp_path, tmp_path / "missing.scene.json")
     with pytest.raises(TypeError):
         tg.design(42)
+
+
+def test_the_gil_is_released_while_designing(root):
+    # While a thread is inside the C++ design, the main thread keeps running Python;
+    # two threads designing the same input get the same numbers.
+    puppy = tg.build_character(str(root / "data" / "characters" / "puppy.character.json"))
+    scene = tg.stress_case(puppy, "noise", 4, 0, 1)
+    results = [None, None]
+
+    def work(i):
+        results[i] = tg.design(scene)
+
+    workers = [threading.Thread(target=work, args=(i,)) for i in range(2)]
+    passes = 0
+    for w in workers:
+        w.start()
+    while any(w.is_alive() for w in workers):
+        passes += 1
+    for w in workers:
+        w.join()
+    assert all(r.ok for r in results)
+    assert passes > 1000
+    assert np.array_equal(results[0].rest_lengths, results[1].rest_lengths)
+    assert np.array_equal(results[0].forces, results[1].forces)
