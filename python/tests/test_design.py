@@ -22,7 +22,7 @@ def _program_design(cli, tmp_path, input_path, *options):
     return run, out
 
 
-@pytest.mark.parametrize("case", ["form-found prism", "puppy", "naive prism"])
+@pytest.mark.parametrize("case", ["form-found prism", "puppy", "naive prism", "compared prism"])
 def test_design_file_equals_the_program_file(cli, root, tmp_path, case):
     options = []
     if case == "puppy":
@@ -35,9 +35,12 @@ def test_design_file_equals_the_program_file(cli, root, tmp_path, case):
                  fix_bottom=True).save(str(input_path))
     if case == "naive prism":
         options = ["--naive-fraction", "0.8"]
+    if case == "compared prism":
+        options = ["--naive-fractions", "0.7:0.9:2"]
     run, program_out = _program_design(cli, tmp_path, input_path, "--strain", "0.25", *options)
     assert run.returncode == 0, run.stderr
-    result = tg.design(input_path, strain=0.25, naive_fraction=0.8 if options else None)
+    result = tg.design(input_path, strain=0.25, naive_fraction=0.8 if case == "naive prism" else None,
+                       naive_fractions=(0.7, 0.9, 2) if case == "compared prism" else None)
     assert result.ok and result.message == ""
     python_out = tmp_path / "python.design.json"
     result.save(python_out)
@@ -61,6 +64,10 @@ def test_design_file_equals_the_program_file(cli, root, tmp_path, case):
         assert result.info["mode"] == "naive"
     else:
         assert result.info["mode"] == "stiffness" and result.info["target_strain"] == 0.25
+    if case == "compared prism":
+        fractions = [row["fraction"] for row in result.info["naive_comparison"]["naive"]]
+        assert fractions == [0.7, 0.9]
+        assert result.comparison_table.strip() and result.comparison_table.strip() in run.stderr
     # The sheet beside the program's design is the one save_sheet writes.
     sheet = tmp_path / "python.sheet.csv"
     result.save_sheet(sheet)
