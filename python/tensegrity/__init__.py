@@ -16,6 +16,7 @@ Bad input raises ValueError with the command line's one-line message
 ("tensegrity: FILE: ITEM: REASON").
 """
 from ._core import (
+    DesignResult,
     Result,
     Scene,
     Verification,
@@ -33,12 +34,12 @@ from ._core import (
     stress_families,
     stress_levels,
 )
-from ._api import check, forces, read_solution, render, simulate, solve
+from ._api import check, design, forces, read_solution, render, simulate, solve
 from .sweep import stress_family, sweep, SWEEP_COLUMNS
 
 __all__ = [
-    "Result", "Scene", "Verification", "SWEEP_COLUMNS",
-    "build_character", "chain", "check", "default_solver", "forces", "load_scene",
+    "DesignResult", "Result", "Scene", "Verification", "SWEEP_COLUMNS",
+    "build_character", "chain", "check", "default_solver", "design", "forces", "load_scene",
     "octahedron", "prism", "prism_equilibrium_twist", "read_solution", "render",
     "scene_from_json", "simulate", "solve", "solvers", "stress_base_scenes", "stress_case",
     "stress_families", "stress_family", "stress_levels", "sweep",

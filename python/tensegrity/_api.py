@@ -1,5 +1,5 @@
 """The commands of the `tensegrity` program as functions (solve, forces, check,
-render): same validation, same messages, same files."""
+render, simulate, design): same validation, same messages, same files."""
 import os
 
 from . import _core
@@ -144,3 +144,86 @@ def simulate(design, dt=1.0 / 60.0, steps=60, gravity=None, damping=0.0, stiffne
         raise ValueError("tensegrity: command line: --drag: expected 3 numbers per target")
     return _core._simulate(os.fspath(design), float(dt), int(steps), gravity, float(damping),
                            float(stiffness_damping), targets, drag_stiffness, int(every), float(tol))
+
+
+DEFAULT_MATERIAL = "elastic-cord-2mm"  # the command line's --material default
+
+
+def _fraction_grid_text(naive_fractions):
+    """The command line's FROM:TO:N from a string or a (from, to, n) triple."""
+    if naive_fractions is None:
+        return ""
+    if isinstance(naive_fractions, str):
+        return naive_fractions
+    start, stop, count = naive_fractions
+    return f"{float(start)!r}:{float(stop)!r}:{int(count)}"
+
+
+def design(scene_or_result, strain=0.3, material=DEFAULT_MATERIAL, material_dirs=None, naive_fraction=None,
+           solver=None, tol=1e-8, time_limit=None, *, compare_naive=False, naive_fractions=None,
+           settle="relax", settle_duration=5.0):
+    """Stiffness scaling and cable rest lengths: a buildable design (``tensegrity design``).
+
+    Parameters
+    ----------
+    scene_or_result : Scene, Result or path
+        A path is read as the command reads its input (scene, character or
+        design file). A Scene is designed as it stands; a Result (of
+        :func:`solve`) at its solved geometry. A Scene or Result is named by
+        the scene's name (else ``Scene``) in messages and in the design's
+        ``input`` record.
+    strain : float
+        Target cable strain (``--strain``); elements may carry ``target_strain``.
+    material : str
+        Cable material name or file (``--material``); elements may carry ``material``.
+    material_dirs : list of paths, optional
+        Extra folders to find NAME.json in (``--material-dir``), searched
+        first; then the materials of the checkout the module was built from
+        (``data/materials``, which the program finds beside itself), then
+        ``$TENSEGRITY_DATA/materials`` and ``./data/materials``.
+    naive_fraction : float, optional
+        The baseline instead: every cable's rest length is this fraction of its length.
+    solver : str, optional
+        Form-finding backend when the input is not in equilibrium.
+    tol, time_limit : float
+        Relative residual of form finding and verification; form-finding
+        budget in seconds (default 120, as on the command line).
+    compare_naive : bool
+        Settle the design and the constant-fraction baseline for a sweep of
+        fractions (``--compare-naive``); the table is ``comparison_table``
+        and the record ``info["naive_comparison"]``.
+    naive_fractions : "FROM:TO:N" or (from, to, n), optional
+        The fractions of the comparison (implies ``compare_naive``).
+    settle : "relax" or "simulate"; settle_duration : float
+        How the comparison settles, and the simulated seconds of ``simulate``.
+
+    Returns
+    -------
+    DesignResult
+        ``ok``; ``positions``, ``forces``, ``rest_lengths``, ``strains``,
+        ``info``; ``save(path)`` writes the design file the command writes
+        (``save_sheet``, ``save_cut_list`` its sheet and cut list). When no
+        buildable design exists, ``ok`` is False and ``message`` is the
+        command's last line.
+
+    Raises
+    ------
+    ValueError
+        Bad input file, option or material: the command line's message.
+    """
+    positions = None
+    if isinstance(scene_or_result, _core.Result):
+        scene, positions = scene_or_result.scene, scene_or_result.positions
+    elif isinstance(scene_or_result, (str, os.PathLike)):
+        scene = None
+    elif isinstance(scene_or_result, _core.Scene):
+        scene = scene_or_result
+    else:
+        raise TypeError(f"expected a tensegrity.Scene, a Result or a path, got {type(scene_or_result).__name__}")
+    source = os.fspath(scene_or_result) if scene is None else (scene.name or "Scene")
+    fraction = float("nan") if naive_fraction is None else float(naive_fraction)
+    limit = DEFAULT_TIME_LIMIT if time_limit is None else float(time_limit)
+    dirs = [os.fspath(d) for d in (material_dirs or [])]
+    return _core._design(scene, positions, source, float(strain), os.fspath(material), dirs, fraction,
+                         solver or "", float(tol), limit, bool(compare_naive),
+                         _fraction_grid_text(naive_fractions), str(settle), float(settle_duration))

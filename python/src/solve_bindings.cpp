@@ -1,0 +1,226 @@
+// tensegrity.Result and the entry points of solve, forces and check; the
+// solvers run with the GIL released.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cli/output.hpp"
+#include "model/errors.hpp"
+#include "model/solution.hpp"
+#include "model/verify.hpp"
+#include "python/src/bindings.hpp"
+
+namespace tensegrity::python {
+
+namespace {
+
+py::dict stats_dict(const SolveResult& r) {
+  py::dict d;
+  d["iterations"] = r.stats.iterations;
+  d["seconds"] = r.stats.seconds;
+  d["residual"] = r.stats.residual;
+  d["relative_residual"] = r.stats.relative_residual;
+  d["geometry_change"] = r.stats.geometry_change;
+  d["message"] = r.message;
+  d["native_code"] = r.native_code;
+  return d;
+}
+
+py::dict trace_dict(const std::vector<TracePoint>& trace) {
+  const auto count = static_cast<py::ssize_t>(trace.size());
+  py::array_t<double> seconds(count), residual(count), relative(count), change(count), objective(count);
+  py::array_t<std::int64_t> iteration(count), evaluations(count);
+  for (py::ssize_t i = 0; i < count; ++i) {
+    const TracePoint& t = trace[static_cast<std::size_t>(i)];
+    seconds.mutable_at(i) = t.seconds;
+    iteration.mutable_at(i) = t.iteration;
+    evaluations.mutable_at(i) = t.evaluations;
+    residual.mutable_at(i) = t.residual;
+    relative.mutable_at(i) = t.relative_residual;
+    change.mutable_at(i) = t.geometry_change;
+    objective.mutable_at(i) = t.objective;
+  }
+  py::dict d;
+  d["seconds"] = seconds;
+  d["iteration"] = iteration;
+  d["evaluations"] = evaluations;
+  d["residual"] = residual;
+  d["relative_residual"] = relative;
+  d["geometry_change"] = change;
+  d["objective"] = objective;
+  return d;
+}
+
+PyResult run_solve(const Structure& scene, const std::string& solver_name, double tol, double time_limit,
+                   int max_iterations, bool skip_if_in_equilibrium, bool verbose,
+                   const std::map<std::string, std::string>& backend_options) {
+  SolveOptions options;
+  options.tolerance = tol;
+  options.time_limit_s = time_limit;
+  options.max_iterations = max_iterations;
+  DriverControls controls;
+  controls.skip_if_in_equilibrium = skip_if_in_equilibrium;
+  options.verbose = verbose;
+  options.backend_options = backend_options;
+  const auto solver = cli::checked_solver(solver_name, options);
+  PyResult out;
+  out.scene = std::make_shared<const Structure>(scene);
+  out.solver = std::string(solver->name());
+  out.tolerance = tol;
+  {
+    py::gil_scoped_release release;
+    out.result = solver->Solve(*out.scene, options, controls);
+  }
+  return out;
+}
+
+PyResult run_forces(const Structure& scene, double tol) {
+  SolveOptions options;
+  options.tolerance = tol;
+  std::string why;
+  if (!options.IsValid(&why)) throw InputError("command line", "--tol", why);
+  PyResult out;
+  out.scene = std::make_shared<const Structure>(scene);
+  out.solver = "stress-qp";
+  out.tolerance = tol;
+  {
+    py::gil_scoped_release release;
+    out.result = solve_forces_only(*out.scene, options);
+  }
+  return out;
+}
+
+}  // namespace
+
+void bind_solve(py::module_& m) {
+  py::class_<Verification>(m, "Verification", "Independent re-check of a solution by the contract's formulas.")
+      .def_readonly("residual", &Verification::residual, "Max net force on a free node (N).")
+      .def_readonly("relative_residual", &Verification::relative_residual)
+      .def_readonly("load_scale", &Verification::load_scale, "N")
+      .def_readonly("geometry_change", &Verification::geometry_change, "m")
+      .def_readonly("wrong_signs", &Verification::wrong_signs)
+      .def_readonly("moved_fixed_nodes", &Verification::moved_fixed_nodes)
+      .def_readonly("all_finite", &Verification::all_finite)
+      .def_readonly("equilibrium_ok", &Verification::equilibrium_ok)
+      .def_readonly("ok", &Verification::ok, "True when every condition holds (the CLI's 'verified').")
+      .def_readonly("problems", &Verification::problems)
+      .def("__bool__", [](const Verification& v) { return v.ok; })
+      .def("__repr__", [](const Verification& v) {
+        char buf[256];
+        std::snprintf(buf, sizeof buf, "<tensegrity.Verification %s: relative residual %.3g, %d wrong signs>",
+                      v.ok ? "verified" : "NOT verified", v.relative_residual, v.wrong_signs);
+        return std::string(buf);
+      });
+
+  py::class_<PyResult>(m, "Result", "The outcome of a solve: status, positions, forces, stats and trace.")
+      .def_property_readonly("status", [](const PyResult& r) { return std::string(to_string(r.result.status)); },
+                             "The solution file's status word ('converged', 'max_iterations', ...).")
+      .def_property_readonly("converged", [](const PyResult& r) { return r.result.status == Status::Converged; })
+      .def_property_readonly("solver", [](const PyResult& r) { return r.solver; })
+      .def_property_readonly("message", [](const PyResult& r) { return r.result.message; })
+      .def_property_readonly("scene", [](const PyResult& r) { return std::make_shared<Structure>(*r.scene); })
+      .def_property_readonly("positions", [](const PyResult& r) { return positions_array(r.result.positions); },
+                             "(n, 3) solved node positions in m.")
+      .def_property_readonly("forces", [](const PyResult& r) { return vector_array(r.result.forces); },
+                             "(m,) axial forces in N, positive = tension.")
+      .def_property_readonly("stats", [](const PyResult& r) { return stats_dict(r.result); },
+                             "iterations, seconds, residual, relative_residual, geometry_change, message, native_code.")
+      .def_property_readonly("trace", [](const PyResult& r) { return trace_dict(r.result.trace); },
+                             "Per-iteration record, a dict of equal-length numpy arrays.")
+      .def("verify",
+           [](const PyResult& r, std::optional<double> tol) {
+             const double t = tol.value_or(r.tolerance);
+             check_tolerance(t);
+             return verify(*r.scene, r.result.positions, r.result.forces, t);
+           },
+           py::arg("tol") = py::none(), "Independent re-check (model/verify) at `tol` (default: the solve's).")
+      .def("save", [](const PyResult& r, const std::filesystem::path& path) { write_solution_file(r.solution(), path.string()); },
+           py::arg("path"), "Writes the solution file, byte for byte what `tensegrity solve --out` writes.")
+      .def("to_json", [](const PyResult& r) { return solution_to_json(r.solution()).dump(2); })
+      .def("summary", [](const PyResult& r) { return cli::summary_line(*r.scene, r.solver, r.result); },
+           "The one-line summary the command line prints on standard error.")
+      .def("__repr__", [](const PyResult& r) {
+        return "<tensegrity.Result " + cli::summary_line(*r.scene, r.solver, r.result) + ">";
+      });
+
+  m.def("solvers", &solver_names, "Names of the backends, as `tensegrity solvers` lists them.");
+  m.def("default_solver", &default_solver_name, "The backend used when none is named.");
+
+  m.def("_solve",
+        [](const Structure& scene, const std::string& solver, double tol, double time_limit, int max_iterations,
+           bool skip_if_in_equilibrium, bool verbose, const std::map<std::string, std::string>& options) {
+          return run_solve(scene, solver, tol, time_limit, max_iterations, skip_if_in_equilibrium, verbose, options);
+        },
+        py::arg("scene"), py::arg("solver"), py::arg("tol"), py::arg("time_limit"), py::arg("max_iterations"),
+        py::arg("skip_if_in_equilibrium"), py::arg("verbose"), py::arg("options"));
+
+  m.def("_check_solver",
+        [](const std::string& solver, double tol, double time_limit, int max_iterations,
+           const std::map<std::string, std::string>& options) {
+          SolveOptions o;
+          o.tolerance = tol;
+          o.time_limit_s = time_limit;
+          o.max_iterations = max_iterations;
+          o.backend_options = options;
+          return std::string(cli::checked_solver(solver, o)->name());
+        },
+        py::arg("solver"), py::arg("tol"), py::arg("time_limit"), py::arg("max_iterations"), py::arg("options"));
+
+  m.def("_forces", &run_forces, py::arg("scene"), py::arg("tol"));
+
+  m.def("_check_solution_file",
+        [](const Structure& scene, const std::string& path, double tol) {
+          check_tolerance(tol);
+          const Solution sol = read_solution_file(path, scene);
+          return verify(scene, sol.positions, sol.forces, tol);
+        },
+        py::arg("scene"), py::arg("path"), py::arg("tol"));
+
+  m.def("_check_arrays",
+        [](const Structure& scene, py::array_t<double, py::array::forcecast> positions,
+           py::array_t<double, py::array::forcecast> forces, double tol) {
+          check_tolerance(tol);
+          if (positions.ndim() != 2 || positions.shape(0) != scene.num_nodes() || positions.shape(1) != 3)
+            throw InputError("arrays", "positions", "expected shape (" + std::to_string(scene.num_nodes()) + ", 3)");
+          if (forces.ndim() != 1 || forces.shape(0) != scene.num_elements())
+            throw InputError("arrays", "forces", "expected shape (" + std::to_string(scene.num_elements()) + ",)");
+          Eigen::Matrix3Xd p(3, scene.num_nodes());
+          for (int i = 0; i < scene.num_nodes(); ++i)
+            for (int k = 0; k < 3; ++k) p(k, i) = positions.at(i, k);
+          Eigen::VectorXd f(scene.num_elements());
+          for (int k = 0; k < scene.num_elements(); ++k) f(k) = forces.at(k);
+          return verify(scene, p, f, tol);
+        },
+        py::arg("scene"), py::arg("positions"), py::arg("forces"), py::arg("tol"));
+
+  m.def("_read_solution",
+        [](const Structure& scene, const std::string& path) {
+          const Solution sol = read_solution_file(path, scene);
+          py::dict d;
+          d["status"] = std::string(to_string(sol.status));
+          d["solver"] = sol.solver;
+          d["positions"] = positions_array(sol.positions);
+          d["forces"] = vector_array(sol.forces);
+          py::dict stats;
+          stats["iterations"] = sol.stats.iterations;
+          stats["seconds"] = sol.stats.seconds;
+          stats["residual"] = sol.stats.residual;
+          stats["relative_residual"] = sol.stats.relative_residual;
+          stats["geometry_change"] = sol.stats.geometry_change;
+          d["stats"] = stats;
+          return d;
+        },
+        py::arg("scene"), py::arg("path"));
+}
+
+}  // namespace tensegrity::python
