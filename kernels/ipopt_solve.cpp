@@ -8,6 +8,8 @@
 #include <coin/IpTNLP.hpp>
 #include <coin/IpTNLPAdapter.hpp>
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <cmath>
 #include <exception>
@@ -31,6 +33,18 @@ double to_ipopt_bound(double v) {
 std::mutex& mumps_mutex() {
   static std::mutex m;
   return m;
+}
+
+// MUMPS factors through BLAS; a multithreaded OpenBLAS sums in an order that
+// depends on its thread count, so Ipopt's iterates (and iteration counts)
+// would depend on the machine's cores. One BLAS thread makes every solve
+// reproducible; the symbol is looked up so that any BLAS Debian provides works.
+void use_one_blas_thread() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    using SetThreads = void (*)(int);
+    if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
+  });
 }
 
 // Serves a SparseNlp to Ipopt: raw arrays in, Eigen views out.
@@ -214,6 +228,7 @@ IpoptSolveResult solve_with_ipopt(SparseNlp& problem, const IpoptSettings& setti
   IpoptSolveResult result;
   // Held until after the application is destroyed (its destructor ends the MUMPS instance).
   std::lock_guard<std::mutex> lock(mumps_mutex());
+  use_one_blas_thread();
   try {
     Ipopt::SmartPtr<Ipopt::IpoptApplication> app = make_application(settings.verbose, result.message);
     if (!result.message.empty()) return result;
