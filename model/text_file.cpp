@@ -77,7 +77,7 @@ void write_text_file_atomically(const std::string& path, const std::string& text
   // The temporary file lives in the target's directory so that rename() is
   // atomic and a failure leaves no partial output under the final name.
   const std::filesystem::path directory = target.has_parent_path() ? target.parent_path() : ".";
-  std::string temp = (directory / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+  std::string temp = (directory / (std::string(".") + target.filename().string() + ".tmp-XXXXXX")).string();
   const int fd = mkstemp(temp.data());
   if (fd < 0) throw InputError(path, "", std::string("cannot create output file: ") + std::strerror(errno));
   auto fail = [&](const char* what) {
