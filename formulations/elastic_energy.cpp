@@ -9,6 +9,21 @@
 
 namespace tensegrity {
 
+namespace {
+
+// Smallest slope (N) of a curve's linear continuation: keeps a borderline
+// curve's continuation from turning flat.
+constexpr double kMinimumContinuationSlope = 1e-12;
+// Bisection for the slack strain: enough halvings to reach the relative
+// resolution below from any bracket a double can hold.
+constexpr int kMaxBisections = 200;
+constexpr double kBisectionResolution = 1e-16;
+// Floors of the model's scales (N, m), so that a massless, force-free or
+// single-point reference still gives finite relative measures.
+constexpr double kSmallestScale = 1e-12;
+
+}  // namespace
+
 // ---- CableCurve -------------------------------------------------------------
 
 CableCurve::CableCurve(const CableMaterial& material) {
@@ -19,15 +34,15 @@ CableCurve::CableCurve(const CableMaterial& material) {
   f_max_ = material.force_unchecked(strain_max_);
   // A validated material has F' > 0 on its range; the floor only keeps a
   // borderline curve's continuation from turning flat.
-  slope_min_ = std::max(material.slope_unchecked(strain_min_), 1e-12);
-  slope_max_ = std::max(material.slope_unchecked(strain_max_), 1e-12);
+  slope_min_ = std::max(material.slope_unchecked(strain_min_), kMinimumContinuationSlope);
+  slope_max_ = std::max(material.slope_unchecked(strain_max_), kMinimumContinuationSlope);
   if (g(0.0) >= 0.0) {
     slack_strain_ = 0.0;
   } else {
     // g is increasing: bisect its root on (0, hi].
     double lo = 0.0, hi = std::max(strain_max_, 1e-6);
     if (g(hi) <= 0.0) hi = strain_max_ + 1.01 * (-f_max_) / slope_max_ + 1e-9;
-    for (int it = 0; it < 200 && hi - lo > 1e-16 * std::max(1.0, hi); ++it) {
+    for (int it = 0; it < kMaxBisections && hi - lo > kBisectionResolution * std::max(1.0, hi); ++it) {
       const double mid = 0.5 * (lo + hi);
       (g(mid) <= 0.0 ? lo : hi) = mid;
     }
@@ -113,7 +128,7 @@ void finish_model(ElasticModel& model, const ElasticModelOptions& options) {
   double weight = 0.0;
   for (int i = 0; i < s.num_nodes(); ++i)
     if (!s.fixed[i]) weight += mass[i] * s.gravity.norm();
-  model.force_scale = std::max({weight, max_force, 1e-12});
+  model.force_scale = std::max({weight, max_force, kSmallestScale});
   if (!(strut_force > 0.0)) strut_force = model.force_scale;
   const double ea = strut_force / options.strut_design_strain;
   model.strut_ea = Eigen::VectorXd::Zero(m);
@@ -125,7 +140,7 @@ void finish_model(ElasticModel& model, const ElasticModelOptions& options) {
   }
   if (s.num_nodes() > 0) {
     const Eigen::Vector3d lo = model.reference.rowwise().minCoeff(), hi = model.reference.rowwise().maxCoeff();
-    model.length_scale = std::max((hi - lo).norm(), 1e-12);
+    model.length_scale = std::max((hi - lo).norm(), kSmallestScale);
   }
 }
 

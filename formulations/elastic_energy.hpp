@@ -15,9 +15,10 @@
 // g the material's force-strain polynomial F (model/material.hpp) on its
 // measured strain range, continued linearly (value and slope of F at the end
 // of the range) outside it, so that large drags stay finite instead of
-// throwing. A fitted curve with F(0) < 0 (the shipped cords: -0.04 N) carries
-// nothing until g crosses zero; one with F(0) > 0 jumps by F(0) at eps = 0.
-// The element force sigma_e = dE/dl_e is positive in tension (CONTRACT.md).
+// throwing. A fitted curve with F(0) < 0 (fits of real cords can have one)
+// carries nothing until g crosses zero; one with F(0) > 0 jumps by F(0) at
+// eps = 0. The element force sigma_e = dE/dl_e is positive in tension
+// (docs/FORMATS.md).
 //
 // Struts are stiff linear springs rather than constraints, so one sparse
 // Newton system serves every purpose. Default stiffness (make_elastic_model):
@@ -135,10 +136,10 @@ class ElasticEnergy {
 
   // Curved line-search path for stiff struts: moves the ends of every strut of
   // `x` along its axis so that its length equals its length in `before` plus
-  // the first-order change of the step x - before (fixed ends stay). A Newton step that rotates a strut lengthens it at
-  // second order, which the 1e6-times stiffer strut energy punishes so hard
-  // that a straight line search would crawl; restoring the lengths first lets
-  // large rotations through.
+  // the first-order change of the step x - before (fixed ends stay). A Newton
+  // step that rotates a strut lengthens it at second order, which the far
+  // stiffer strut energy punishes so hard that a straight line search would
+  // crawl; restoring the lengths first lets large rotations through.
   void restore_strut_lengths(const Eigen::Matrix3Xd& before, Eigen::Matrix3Xd& x) const;
 
   // Axial forces sigma_e (N, tension > 0) at x.

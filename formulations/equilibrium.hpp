@@ -63,8 +63,8 @@ class Equilibrium {
   // out = J v with J = df/dq above, element by element without assembling J
   // (J is symmetric, so this is also J^T v): element e adds K (v_b - v_a) to
   // the rows of a and subtracts it from those of b (v of a fixed end = 0).
-  // About a third of the work of refreshing J's values and multiplying, for a
-  // loop (Algorithm 1's gradient steps) that needs two products per geometry.
+  // Cheaper than refreshing J's values and multiplying, for a loop
+  // (Algorithm 1's gradient steps) that needs two products per geometry.
   // It scales by sigma_e * (1 / l) (one division per element per geometry,
   // in the update), so its values may differ from J's by an ulp.
   // out must not alias v; it is resized only when its size is wrong.

@@ -12,7 +12,8 @@
 //     equilibrium is a tensegrity whatever its force level. Eq. 5 alone needs a
 //     bound, since a geometry change can shrink by raising the prestress: the
 //     mean cable force is held at kappa W (c^T sigma = n_c kappa W), an
-//     equality because the upper bound made Ipopt wander (docs/THEORY-force-scale.md).
+//     equality since an upper bound alone lets the solution end far from the
+//     scene (docs/THEORY-force-scale.md).
 //
 //   reference force  F0 = W when W > 0, otherwise 1 N (the unit of forces);
 //   sign margins     cable sigma >= margin, strut sigma <= -margin,

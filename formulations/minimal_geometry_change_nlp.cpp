@@ -87,9 +87,9 @@ void MinimalGeometryChangeNlp::constraint_bounds(Eigen::VectorXd& lower, Eigen::
   lower = Eigen::VectorXd::Zero(num_constraints());
   upper = lower;
   if (scale_.has_normalisation()) lower[nq_] = upper[nq_] = scale_.normalisation_target;
-  // Under gravity the mean cable force is held at kappa times the weight: with
-  // only an upper bound, Ipopt wandered far from the scene on perturbed gravity
-  // prisms (docs/THEORY-force-scale.md), so Eq. 5 keeps the equality.
+  // Under gravity the mean cable force is held at kappa times the weight, an
+  // equality: an upper bound alone lets Eq. 5 trade prestress for geometry and
+  // end far from the scene (docs/THEORY-force-scale.md).
   if (scale_.has_prestress_cap()) lower[nq_] = upper[nq_] = scale_.prestress_cap;
 }
 

@@ -13,8 +13,8 @@
 // Exact sparse gradient, constraint Jacobian and Hessian of the Lagrangian.
 // Structures are computed once; values are written in the same order every call
 // and no evaluation allocates. Everything here is in SI units; a solver adapter
-// that wants a dimensionless problem rescales (solvers/ipopt_solver.cpp divides
-// q - q0 by L, sigma and the constraint rows by F0).
+// that wants a dimensionless problem rescales (solvers/ipopt/dimensionless_eq5.hpp
+// divides q - q0 by L, sigma and the constraint rows by F0).
 //
 // Jacobian triplet order: the 3x3 blocks of df/dq (column by column), then
 // df/dsigma = A (column by column), then the cable-sum row.
@@ -69,7 +69,7 @@ class MinimalGeometryChangeNlp {
   // q0: the scene's free coordinates (3 n_free, m).
   const Eigen::VectorXd& reference_coordinates() const { return q0_; }
 
-  // Largest free-node net force |f_i| (N) at z (CONTRACT.md's residual).
+  // Largest free-node net force |f_i| (N) at z (the residual of docs/FORMATS.md).
   double max_node_residual(const Eigen::VectorXd& z);
 
  private:

@@ -35,6 +35,10 @@ double stiffness_objective(const StiffnessProblem& p, const Eigen::VectorXd& sig
 
 namespace {
 
+// A has unit columns: a relative pivot threshold well above round-off and
+// well below any genuine geometric coupling.
+constexpr double kRelativePivotThreshold = 1e-10;
+
 // Rank-revealing QR of A_F^T (free columns of A, transposed). Pivoting makes
 // the null space and the particular solution exact even when rows of A are
 // dependent (rigid-body modes, isolated rows).
@@ -49,9 +53,7 @@ struct FreeColumnsQr {
     At.resize(static_cast<Eigen::Index>(free.size()), A.rows());
     for (std::size_t i = 0; i < free.size(); ++i) At.row(static_cast<Eigen::Index>(i)) = A.col(free[i]).transpose();
     qr = Eigen::ColPivHouseholderQR<Eigen::MatrixXd>(At.rows(), At.cols());
-    // A has unit columns: a relative pivot threshold well above round-off and
-    // well below any genuine geometric coupling.
-    qr.setThreshold(1e-10);
+    qr.setThreshold(kRelativePivotThreshold);
     if (At.size() > 0) {
       qr.compute(At);
       rank = static_cast<int>(qr.rank());

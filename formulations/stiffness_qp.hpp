@@ -16,7 +16,7 @@
 //   w .* (sigma - t) + A^T lambda - z = 0,
 //   z_e >= 0 where sigma_e = lower_e, z_e <= 0 where sigma_e = upper_e, else 0.
 //
-// Ipopt solves it in solvers/stiffness_solver.hpp; the exact active-set solve
+// Ipopt solves it in design/stiffness_solver.hpp; the exact active-set solve
 // below polishes its answer to machine precision.
 #include <Eigen/Core>
 #include <vector>

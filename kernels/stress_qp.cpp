@@ -215,7 +215,7 @@ void Impl::apply_modified(const Eigen::VectorXd& x, const SparseMatrix& A,
 
 // x = K^{-1} [b; 0] (first m entries), then iterative refinement against the
 // operator `apply` (out = M x) that K approximates: the near-null directions of
-// A^T A, damped only by mu, would otherwise cost ~6 digits.
+// A^T A, damped only by mu, would otherwise cost digits of accuracy.
 template <class Apply>
 bool Impl::refined_solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, int refinements, Apply apply) {
   aug_rhs.head(m) = b;

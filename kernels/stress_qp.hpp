@@ -6,9 +6,9 @@
 //
 // c^T sigma = t is the normalisation of ForceScale (mean cable force = F0),
 // present only without gravity (under gravity the load sets the scale and the
-// term is absent); w weights it; mu is the paper's weak regulariser (it picks the smallest forces
-// among equally good ones) and is applied without biasing the residual (the
-// solution is polished on the final free set). A bound-constrained sparse
+// term is absent); w weights it; mu is the paper's weak regulariser (it picks
+// the smallest forces among equally good ones) and is applied without biasing
+// the residual (the solution is polished on the final free set). A bound-constrained sparse
 // least-squares kernel of our own: the symbolic analysis of the normal matrix is
 // done once per topology, and each solve is warm-started from the previous
 // forces (Algorithm 1 passes them in).
@@ -69,8 +69,8 @@ struct StressQpOptions {
   // near-mechanisms the pull towards the origin moves many forces along
   // near-null directions of A at every solve; centred on the warm start, a
   // re-solve after a small geometry change only corrects the residual
-  // (alternating.hpp: the faithful scheme converges on puppy and scorpion).
-  // No effect on a cold start.
+  // (solvers/alternating/alternating_solver.hpp, qp_proximal). No effect on a
+  // cold start.
   bool proximal = false;
   // After this many projected-Newton iterations without settling, one
   // Mehrotra interior-point phase (see stress_qp.cpp); negative: never.
@@ -99,7 +99,7 @@ struct StressQpResult {
   double objective = 0.0;         // |A sigma + f_g|^2 + w^2 (c^T sigma - t)^2 (no mu term)
   int iterations = 0;             // projected-Newton steps taken
   int factorizations = 0;         // numeric factorizations of K (the dominant cost)
-  int polish_steps = 0;           // iterated-Tikhonov steps taken
+  int polish_steps = 0;           // polish steps (conjugate-gradient solves) taken
   int active_bounds = 0;          // forces at a bound
   // Largest violation of the KKT conditions of the objective without the mu
   // term (free forces: zero gradient; forces at a bound: gradient pointing out

@@ -56,9 +56,9 @@ Block make_diamond_block(int n = 4, double diagonal_ratio = 0.5);
 // image of the first in that face's plane (a superposition of two self-stresses).
 Block make_double_icosahedron_block();
 // Braced templates. The paper's characters carry more cables than the minimal
-// templates (duck 253, scorpion 523, against 174 and 420 with minimal blocks);
-// these add the bracing cables physical builds use, each at a geometry where the
-// extra cables carry tension (docs/CHARACTERS.md gives the counting):
+// templates give (docs/CHARACTERS.md counts them); these add the bracing
+// cables physical builds use, each at a geometry where the extra cables carry
+// tension:
 //   icosahedron-braced          the 6 short cables between the ends of parallel
 //                               struts (all 20 icosahedron faces become cable
 //                               triangles): 30 cables. They carry tension only

@@ -11,7 +11,7 @@ namespace tensegrity {
 
 namespace {
 
-// Keys of the contract in reading order; anything else follows alphabetically.
+// Keys of the file formats in reading order; anything else follows alphabetically.
 constexpr std::array<std::string_view, 23> kKeyOrder = {
     "format", "version",  "name",   "scene",      "solver",     "status",
     "gravity", "kind",    "x",      "nodes",      "fixed",      "mass",

@@ -59,14 +59,24 @@ double CableMaterial::force(double eps) const {
   return force_unchecked(eps);
 }
 
+// A negligible leading coefficient (relative to the largest) would put huge
+// spurious roots into the companion matrix; over a bounded strain range it
+// changes nothing.
+constexpr double kNegligibleLeadingCoefficient = 1e-14;
+// Eigenvalues of the companion matrix lose a few digits: a root counts as real
+// below this relative imaginary part, and Newton steps on the polynomial
+// restore the lost digits.
+constexpr double kRealRootImaginaryPart = 1e-7;
+constexpr int kRootNewtonPolishSteps = 3;
+// A polished root this close (relative) outside [lo, hi] is taken as the end.
+constexpr double kRootRangeSlack = 1e-12;
+
 std::vector<double> real_polynomial_roots(const std::vector<double>& a_in, double lo, double hi) {
   std::vector<double> a = a_in;
   double scale = 0.0;
   for (double v : a) scale = std::max(scale, std::abs(v));
   if (scale == 0.0) return {};
-  // A negligible leading coefficient would put huge spurious roots into the
-  // companion matrix; over a bounded strain range it changes nothing.
-  while (!a.empty() && std::abs(a.back()) <= 1e-14 * scale) a.pop_back();
+  while (!a.empty() && std::abs(a.back()) <= kNegligibleLeadingCoefficient * scale) a.pop_back();
   const int degree = static_cast<int>(a.size()) - 1;
   if (degree < 1) return {};
   Eigen::MatrixXd companion = Eigen::MatrixXd::Zero(degree, degree);
@@ -78,14 +88,14 @@ std::vector<double> real_polynomial_roots(const std::vector<double>& a_in, doubl
   const std::vector<double> da = derivative(a);
   for (int i = 0; i < degree; ++i) {
     const std::complex<double> z = eig.eigenvalues()[i];
-    if (std::abs(z.imag()) > 1e-7 * (1.0 + std::abs(z.real()))) continue;
+    if (std::abs(z.imag()) > kRealRootImaginaryPart * (1.0 + std::abs(z.real()))) continue;
     double t = z.real();
-    for (int it = 0; it < 3; ++it) {  // polish; eigenvalues lose a few digits
+    for (int it = 0; it < kRootNewtonPolishSteps; ++it) {
       const double d = horner(da, t);
       if (d == 0.0) break;
       t -= horner(a, t) / d;
     }
-    const double slack = 1e-12 * (1.0 + std::abs(hi - lo));
+    const double slack = kRootRangeSlack * (1.0 + std::abs(hi - lo));
     if (t >= lo - slack && t <= hi + slack) roots.push_back(std::clamp(t, lo, hi));
   }
   std::sort(roots.begin(), roots.end());

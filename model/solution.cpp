@@ -73,8 +73,8 @@ Eigen::VectorXd per_element_numbers(const json& j, const char* key, int m, const
 const std::vector<std::string_view>& solution_keys() {
   static const std::vector<std::string_view> keys = {
       "format", "version", "scene", "solver", "status", "positions", "forces", "stats", "rest_lengths",
-      // Written by solve (a backend's message and native code) and by relax.
-      "message", "native_code", "gravity", "max_displacement", "max_displacement_node", "relative_max_displacement",
+      // Written by solve (a backend's message, native code and details) and by relax.
+      "message", "native_code", "details", "gravity", "max_displacement", "max_displacement_node", "relative_max_displacement",
       "size", "slack_cables", "cables_outside_measured_range"};
   return keys;
 }

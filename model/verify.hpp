@@ -26,7 +26,7 @@ struct Verification {
 Verification verify(const Structure& scene, const Eigen::Matrix3Xd& positions,
                     const Eigen::VectorXd& forces, double tolerance = 1e-8);
 
-// Net force at every node (3 x n; fixed nodes get zero), contract's formula.
+// Net force at every node (3 x n; fixed nodes get zero), the formula of docs/FORMATS.md.
 Eigen::Matrix3Xd net_forces(const Structure& scene, const Eigen::Matrix3Xd& positions,
                             const Eigen::VectorXd& forces);
 

@@ -12,6 +12,7 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,14 @@ void run_cases(const std::vector<Case>& cases) {
     const auto solver = make_solver(backend);
     for (const Case& c : cases) expect_converged_and_verified(c, solve_scene(*solver, c.scene, options), name);
   }
+}
+
+// The backend's own counts of a one-part solve (the solution file's "details").
+const AlternatingDetails& alternating_details(const SolveResult& r) {
+  if (r.details.size() != 1u) throw std::logic_error("expected the details of one part");
+  const auto* d = dynamic_cast<const AlternatingDetails*>(r.details.front().get());
+  if (d == nullptr) throw std::logic_error("no AlternatingDetails");
+  return *d;
 }
 
 // The grid: prisms n = 3..12, twist off by 5, 10, 15 and 20 degrees,
@@ -224,6 +233,8 @@ TEST(AlternatingSolver, AdaptiveStepsAreCauchyStepsUntilTheSchemeCrawls) {
   ASSERT_GT(from, defaults.crawl_window);
   ASSERT_GT(static_cast<int>(plain.trace.size()), from);
   ASSERT_GT(static_cast<int>(crawl.trace.size()), from);
+  EXPECT_EQ(alternating_details(crawl).sdc_from_iteration, from);
+  EXPECT_EQ(alternating_details(plain).sdc_from_iteration, -1);
   for (int k = 0; k <= from; ++k) ASSERT_EQ(crawl.trace[k].objective, plain.trace[k].objective) << k;
   const auto objective = [&](int k) { return crawl.trace[k].objective; };
   EXPECT_GE(objective(from), defaults.crawl_ratio * objective(from - defaults.crawl_window));
@@ -355,6 +366,68 @@ TEST(AlternatingSolver, AStallIsReportedAsStalledNotInfeasible) {
   EXPECT_EQ(r.status, Status::Stalled) << r.message;
   EXPECT_NE(r.message.find("stalled"), std::string::npos) << r.message;
   EXPECT_GT(r.stats.relative_residual, 1e-8);
+}
+
+// The backend's own counts (the solution file's "details"). The faithful
+// scheme runs one stress solve at the input and one after every position
+// phase, so on a converging scene its solves are the trace points; the stall
+// of the test above is one stall after two solves.
+TEST(AlternatingSolver, DetailsCountStressSolvesAndStalls) {
+  const Structure mild = perturbed(prism(6, 10.0, false), 0.01, 77);
+  const SolveResult converged = AlternatingSolver().Solve(mild, SolveOptions{});
+  ASSERT_EQ(converged.status, Status::Converged) << converged.message;
+  const AlternatingDetails& c = alternating_details(converged);
+  EXPECT_FALSE(c.gauss_newton);
+  EXPECT_EQ(c.stress_solves, static_cast<int>(converged.trace.size()));
+  EXPECT_EQ(c.non_optimal_stress_solves, 0);
+  EXPECT_EQ(c.stalls, 0);
+  EXPECT_EQ(c.sdc_from_iteration, -1);
+
+  SolveOptions stall;
+  stall.backend_options["epsilon_cvg"] = "1e3";
+  const SolveResult stalled = AlternatingSolver().Solve(prism(4, 10.0, false), stall);
+  ASSERT_EQ(stalled.status, Status::Stalled) << stalled.message;
+  const AlternatingDetails& s = alternating_details(stalled);
+  EXPECT_EQ(s.stress_solves, 2);
+  EXPECT_EQ(s.stalls, 1);
+  const nlohmann::json j = to_solution(stalled, prism(4, 10.0, false), "alternating").extra.at("details");
+  EXPECT_EQ(j.at("stress_solves"), 2);
+  EXPECT_EQ(j.at("stalls"), 1);
+  EXPECT_EQ(j.at("sdc_from_iteration"), -1);
+  EXPECT_FALSE(j.contains("restarts"));
+}
+
+// A stall test that no run can pass (the objective must fall by 1e300 in one
+// outer iteration) stops every Gauss-Newton run after its first step: with
+// restarts=3 and no interior attempt, four runs, three restarts, four stalls.
+TEST(AlternatingSolver, DetailsCountGaussNewtonRestarts) {
+  const Structure scene = perturbed(prism(6, 15.0, false), 0.1, 21);
+  SolveOptions options;
+  options.backend_options = {{"interior_iterations", "0"}, {"restarts", "3"}, {"stall_window", "1"},
+                             {"stall_ratio", "1e-300"}};
+  const SolveResult r = AlternatingGnSolver().Solve(scene, options);
+  ASSERT_EQ(r.status, Status::Stalled) << r.message;
+  const AlternatingDetails& d = alternating_details(r);
+  EXPECT_TRUE(d.gauss_newton);
+  EXPECT_EQ(d.restarts, 3);
+  EXPECT_EQ(d.stalls, 4);
+  EXPECT_EQ(d.interior_iterations, 0);
+  EXPECT_GE(d.stress_solves, 4);  // at least the first solve of every run
+  EXPECT_EQ(r.stats.iterations, 4);
+  const nlohmann::json j = to_solution(r, scene, "alternating-gn").extra.at("details");
+  EXPECT_EQ(j.at("restarts"), 3);
+  EXPECT_EQ(j.at("stalls"), 4);
+  EXPECT_FALSE(j.contains("sdc_from_iteration"));
+
+  // With the interior attempt (the default) a mildly perturbed prism converges
+  // there: no run of the alternating iteration, so no restart and no QP solve.
+  const SolveResult interior = AlternatingGnSolver().Solve(perturbed(prism(6, 10.0, false), 0.01, 77), SolveOptions{});
+  ASSERT_EQ(interior.status, Status::Converged) << interior.message;
+  const AlternatingDetails& i = alternating_details(interior);
+  EXPECT_EQ(i.interior_iterations, interior.stats.iterations);
+  EXPECT_GT(i.interior_iterations, 0);
+  EXPECT_EQ(i.restarts, 0);
+  EXPECT_EQ(i.stress_solves, 0);
 }
 
 TEST(AlternatingSolver, GravityWithoutSupportsIsInfeasible) {

@@ -151,6 +151,28 @@ TEST(IpoptSolver, OptionsPassThroughAndUnknownNamesAreRejected) {
   EXPECT_LE(r.stats.iterations, 2);
 }
 
+// The solution file's "details": Ipopt's own return code and iteration count.
+TEST(IpoptSolver, DetailsCarryIpoptsReturnCodeAndIterations) {
+  const IpoptSolver solver;
+  SolveOptions budget = no_shortcut();
+  budget.backend_options = {{"max_iter", "2"}};
+  for (const SolveOptions& o : {no_shortcut(), budget}) {
+    const SolveResult r = solver.Solve(perturbed(prism(6), 0.05, 10u), o, DriverControls{false});
+    ASSERT_EQ(r.details.size(), 1u);
+    const auto* d = dynamic_cast<const IpoptDetails*>(r.details.front().get());
+    ASSERT_NE(d, nullptr);
+    EXPECT_EQ(d->return_code, r.native_code);
+    EXPECT_EQ(d->iterations, r.stats.iterations);
+    if (o.backend_options.empty()) {
+      EXPECT_EQ(r.status, Status::Converged) << r.message;
+      EXPECT_TRUE(d->return_code == 0 || d->return_code == 1) << d->return_code;  // Solve_Succeeded, Solved_To_Acceptable_Level
+    } else {
+      EXPECT_EQ(d->return_code, -1);  // Maximum_Iterations_Exceeded
+      EXPECT_EQ(d->to_json(), (nlohmann::json{{"return_code", -1}, {"iterations", r.stats.iterations}}));
+    }
+  }
+}
+
 TEST(IpoptSolver, GravityWithoutSupportIsInfeasible) {
   PrismParameters p;
   p.n = 4;

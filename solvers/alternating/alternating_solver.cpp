@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -72,6 +73,8 @@ class PartSolve {
   // The run ended at a stall or on the iteration budget (not on time, not
   // for a reason a restart cannot change).
   bool restartable() const { return restartable_; }
+  // The counters of this run (AlternatingDetails), valid after run().
+  const AlternatingDetails& details() const { return details_; }
 
  private:
   static StressQpOptions make_qp_options(const AlternatingOptions& alt, bool gauss_newton) {
@@ -90,6 +93,7 @@ class PartSolve {
   double solve_stress(Eigen::VectorXd& sigma, Eigen::VectorXd& f) {
     const StressQpResult r = qp_.solve(sigma);
     ++evaluations_;
+    count_stress_solve(r);
     const double phi_warm = objective(sigma, f);
     if (r.sigma.size() != sigma.size() || !r.sigma.allFinite()) return phi_warm;
     const double phi_qp = objective(r.sigma, f_scratch_);
@@ -97,6 +101,11 @@ class PartSolve {
     sigma = r.sigma;
     f.swap(f_scratch_);
     return phi_qp;
+  }
+
+  void count_stress_solve(const StressQpResult& r) {
+    ++details_.stress_solves;
+    if (!r.optimal) ++details_.non_optimal_stress_solves;
   }
 
   double node_residual(const Eigen::VectorXd& f) const { return measure_.max_node_residual(f); }
@@ -141,6 +150,7 @@ class PartSolve {
   double last_step_ = 1.0, last_largest_move_ = 0.0;  // of the last rejected trial
   int crawl_from_ = -1;  // adaptive step lengths: the outer iteration SDC steps began at (-1: not yet)
   Eigen::VectorXd anchor_offset_, rhs_anchor_;
+  AlternatingDetails details_;
 };
 
 // Algorithm 1, lines 3-9, at fixed sigma; then line 2 of the next iteration.
@@ -376,6 +386,9 @@ void PartSolve::gauss_newton_phase() {
 }
 
 SolveResult PartSolve::finish(Status status, std::string message) {
+  details_.gauss_newton = gauss_newton_;
+  details_.sdc_from_iteration = crawl_from_;
+  if (status == Status::Stalled) ++details_.stalls;
   return make_part_result(part_, eq_.free_nodes(), q_, sigma_, status, std::move(message), options_.tolerance,
                           recorder_);
 }
@@ -389,6 +402,7 @@ SolveResult PartSolve::run() {
                                  ? qp_.solve(initial_forces_)
                                  : qp_.solve();
     ++evaluations_;
+    count_stress_solve(r);
     sigma_ = r.sigma;
     if (sigma_.size() != eq_.num_elements()) {
       sigma_ = reference_forces(part_, scale_);
@@ -548,10 +562,32 @@ GaussNewtonAlternatingOptions GaussNewtonAlternatingOptions::FromPairs(const Opt
   return o;
 }
 
+void AlternatingDetails::add_run(const AlternatingDetails& run, bool restart) {
+  stress_solves += run.stress_solves;
+  non_optimal_stress_solves += run.non_optimal_stress_solves;
+  stalls += run.stalls;
+  restarts += restart ? 1 : 0;
+}
+
+nlohmann::json AlternatingDetails::to_json() const {
+  nlohmann::json j = {{"stress_solves", stress_solves},
+                      {"non_optimal_stress_solves", non_optimal_stress_solves},
+                      {"stalls", stalls}};
+  if (gauss_newton) {
+    j["restarts"] = restarts;
+    j["interior_iterations"] = interior_iterations;
+  } else {
+    j["sdc_from_iteration"] = sdc_from_iteration;
+  }
+  return j;
+}
+
 SolveResult solve_faithful_part(const Structure& part, const SolveOptions& options,
                                 const Eigen::VectorXd& initial_forces, const AlternatingOptions& alternating) {
   PartSolve solve(part, options, initial_forces, alternating, false);
-  return solve.run();
+  SolveResult r = solve.run();
+  r.details = {std::make_shared<const AlternatingDetails>(solve.details())};
+  return r;
 }
 
 SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& options,
@@ -564,9 +600,15 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   int iterations = 0;
   SolveResult best;
+  AlternatingDetails details;
+  details.gauss_newton = true;
   if (alternating.interior.max_iterations > 0) {
     best = solve_interior_gauss_newton(part, options, initial_forces, alternating.interior);
-    if (best.status == Status::Converged) return best;
+    details.interior_iterations = best.stats.iterations;
+    if (best.status == Status::Converged) {
+      best.details = {std::make_shared<const AlternatingDetails>(details)};
+      return best;
+    }
     iterations += best.stats.iterations;
   }
   const int attempts = 1 + alternating.restarts;
@@ -584,6 +626,7 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
     PartSolve solve(part, so, initial_forces, o, true);
     SolveResult r = solve.run();
     iterations += r.stats.iterations;
+    details.add_run(solve.details(), a > 0);
     for (TracePoint& p : r.trace) p.seconds += offset;
     const bool better = a == 0 || r.status == Status::Converged ||
                         (best.status != Status::Converged && r.stats.relative_residual < best.stats.relative_residual);
@@ -592,6 +635,7 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
   }
   best.stats.iterations = iterations;
   best.stats.seconds = elapsed();
+  best.details = {std::make_shared<const AlternatingDetails>(details)};
   return best;
 }
 

@@ -50,6 +50,7 @@
 // TracePoint per outer iteration; its `objective` is Eq. 4's objective.
 #include <Eigen/Core>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 
@@ -113,6 +114,28 @@ struct FaithfulAlternatingOptions : AlternatingOptions {
 // interior_boundary_fraction, interior_anchor_until, epsilon_cvg, mu, margin.
 struct GaussNewtonAlternatingOptions : AlternatingOptions {
   static GaussNewtonAlternatingOptions FromPairs(const OptionPairs& pairs);
+};
+
+// What a part solve did beyond the common result fields: the solution file's
+// "details" (docs/FORMATS.md lists the keys). A non-optimal stress solve is
+// one whose QP stopped before certifying its KKT conditions (iteration cap,
+// numerical failure); the scheme then keeps the better of its warm start and
+// the QP's forces.
+struct AlternatingDetails : SolverDetails {
+  bool gauss_newton = false;          // which variant: selects the keys written
+  int stress_solves = 0;              // stress QP (Eq. 4) solves, all runs
+  int non_optimal_stress_solves = 0;  // of them, not certified optimal
+  int stalls = 0;                     // runs stopped by the stall test
+  // alternating: the outer iteration SDC steps began at (adaptive step lengths), -1: never.
+  int sdc_from_iteration = -1;
+  // alternating-gn: runs after the first (restarts from the input geometry) and
+  // the steps of the interior attempt (0 when skipped).
+  int restarts = 0;
+  int interior_iterations = 0;
+
+  // Adds the counters of one Gauss-Newton run (a restart unless it is the first).
+  void add_run(const AlternatingDetails& run, bool restart);
+  nlohmann::json to_json() const override;
 };
 
 class AlternatingSolver : public SolverWithOptions<FaithfulAlternatingOptions> {

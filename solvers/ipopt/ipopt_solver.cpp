@@ -211,6 +211,10 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
     result.message += " (started from alternating-gn's equilibrium after " + std::to_string(start.stats.iterations) +
                       " iterations)";
   result.stats.iterations = run.iterations;
+  auto details = std::make_shared<IpoptDetails>();
+  details->return_code = run.return_code;
+  details->iterations = run.iterations;
+  result.details = {std::move(details)};
 
   if (problem.has_final_point() && problem.final_point().allFinite()) {
     result.positions = nlp.positions(problem.final_point());
@@ -243,6 +247,10 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   result.stats.geometry_change = v.geometry_change;
   result.trace = std::move(recorder.trace());
   return result;
+}
+
+nlohmann::json IpoptDetails::to_json() const {
+  return {{"return_code", return_code}, {"iterations", iterations}};
 }
 
 std::unique_ptr<Solver> make_ipopt_solver() { return std::make_unique<IpoptSolver>(); }

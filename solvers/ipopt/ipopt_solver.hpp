@@ -28,6 +28,7 @@
 // own option registry; an unknown name or a rejected value is an OptionError
 // that names the valid values.
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -51,6 +52,13 @@ struct IpoptOptions {
   std::vector<IpoptOption> typed;  // `native` with the types of Ipopt's registry
   static IpoptOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
+};
+
+// The solution file's "details" of an ipopt part solve (docs/FORMATS.md).
+struct IpoptDetails : SolverDetails {
+  int return_code = 0;  // Ipopt's ApplicationReturnStatus (0: Solve_Succeeded)
+  int iterations = 0;   // Ipopt's own iteration count
+  nlohmann::json to_json() const override;
 };
 
 class IpoptSolver : public SolverWithOptions<IpoptOptions> {
