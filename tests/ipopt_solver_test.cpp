@@ -183,9 +183,6 @@ TEST(IpoptSolver, GravityWithoutSupportIsInfeasible) {
   EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
 }
 
-}  // namespace
-}  // namespace tensegrity
-
 TEST(IpoptSolver, StartOptionIsCheckedAndAWarmStartReachesTheSameOptimum) {
   const IpoptSolver solver;
   SolveOptions bad;
@@ -206,3 +203,6 @@ TEST(IpoptSolver, StartOptionIsCheckedAndAWarmStartReachesTheSameOptimum) {
   EXPECT_GT(cold.stats.geometry_change, 0.0);
   std::printf("cold %d iterations, warm %d iterations\n", cold.stats.iterations, warm.stats.iterations);
 }
+
+}  // namespace
+}  // namespace tensegrity
