@@ -34,7 +34,6 @@
 // The geometry change relative to the best successful backend per scene is
 // computed by bench/scripts/report.py from the JSON (it needs all backends).
 #include <benchmark/benchmark.h>
-#include <dlfcn.h>
 #include <malloc.h>
 #include <sys/resource.h>
 #include <unistd.h>
@@ -58,6 +57,7 @@
 #include "solvers/solver.hpp"
 #include "solvers/trace_csv.hpp"
 #include "scenes/suites.hpp"
+#include "kernels/blas_threads.hpp"
 
 // ---------------------------------------------------------------------------
 // Heap meter: malloc and friends are interposed for the whole process (shared
@@ -331,12 +331,7 @@ void parse_own_flags(int* argc, char** argv) {
 }  // namespace tensegrity
 
 int main(int argc, char** argv) {
-  // One solve, one core: OpenBLAS (under MUMPS) read its environment when it
-  // was loaded, so tell it at run time as well (when it is the BLAS in use).
-  setenv("OPENBLAS_NUM_THREADS", "1", 0);
-  setenv("OMP_NUM_THREADS", "1", 0);
-  for (const char* symbol : {"openblas_set_num_threads", "omp_set_num_threads"})
-    if (auto* set = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, symbol))) set(1);
+  tensegrity::use_one_blas_thread();  // one solve, one core
   tensegrity::parse_own_flags(&argc, argv);
   tensegrity::register_all();
   benchmark::Initialize(&argc, argv);

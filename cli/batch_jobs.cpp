@@ -6,6 +6,7 @@
 #include "model/solution.hpp"
 #include "model/verify.hpp"
 #include "solvers/trace_csv.hpp"
+#include "kernels/blas_threads.hpp"
 
 namespace tensegrity::cli {
 

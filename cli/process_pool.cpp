@@ -1,6 +1,5 @@
 #include "cli/process_pool.hpp"
 
-#include <dlfcn.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <sched.h>
@@ -423,13 +422,6 @@ ProcessPoolRun run_in_worker_processes(std::size_t total, const std::vector<std:
   if (order.size() != total) throw std::logic_error("run_in_worker_processes: order must list every job once");
   process_pool_detail::Coordinator coordinator(total, job, options);
   return coordinator.run(order);
-}
-
-void use_one_blas_thread() {
-  ::setenv("OPENBLAS_NUM_THREADS", "1", 1);
-  ::setenv("OMP_NUM_THREADS", "1", 1);
-  for (const char* symbol : {"openblas_set_num_threads", "omp_set_num_threads"})
-    if (auto* set = reinterpret_cast<void (*)(int)>(::dlsym(RTLD_DEFAULT, symbol))) set(1);
 }
 
 int available_cores() {

@@ -52,11 +52,6 @@ ProcessPoolRun run_in_worker_processes(std::size_t total, const std::vector<std:
                                        const std::function<std::string(std::size_t)>& job,
                                        const ProcessPoolOptions& options);
 
-// One BLAS (and OpenMP) thread per solve from now on, in this process and
-// the workers it forks: the parallelism is across jobs. The variables are
-// read when the libraries start, so they are also told directly.
-void use_one_blas_thread();
-
 // The cores this process may run on (its CPU affinity mask), at least 1.
 int available_cores();
 

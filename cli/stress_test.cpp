@@ -14,6 +14,7 @@
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
+#include "kernels/blas_threads.hpp"
 
 namespace tensegrity::cli {
 

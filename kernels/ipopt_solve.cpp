@@ -1,5 +1,7 @@
 #include "kernels/ipopt_solve.hpp"
 
+#include "kernels/blas_threads.hpp"
+
 #include <coin/IpIpoptApplication.hpp>
 #include <coin/IpIpoptCalculatedQuantities.hpp>
 #include <coin/IpIpoptData.hpp>
@@ -7,8 +9,6 @@
 #include <coin/IpSolveStatistics.hpp>
 #include <coin/IpTNLP.hpp>
 #include <coin/IpTNLPAdapter.hpp>
-
-#include <dlfcn.h>
 
 #include <algorithm>
 #include <cmath>
@@ -33,18 +33,6 @@ double to_ipopt_bound(double v) {
 std::mutex& mumps_mutex() {
   static std::mutex m;
   return m;
-}
-
-// MUMPS factors through BLAS; a multithreaded OpenBLAS sums in an order that
-// depends on its thread count, so Ipopt's iterates (and iteration counts)
-// would depend on the machine's cores. One BLAS thread makes every solve
-// reproducible; the symbol is looked up so that any BLAS Debian provides works.
-void use_one_blas_thread() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    using SetThreads = void (*)(int);
-    if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
-  });
 }
 
 // Serves a SparseNlp to Ipopt: raw arrays in, Eigen views out.
@@ -228,7 +216,7 @@ IpoptSolveResult solve_with_ipopt(SparseNlp& problem, const IpoptSettings& setti
   IpoptSolveResult result;
   // Held until after the application is destroyed (its destructor ends the MUMPS instance).
   std::lock_guard<std::mutex> lock(mumps_mutex());
-  use_one_blas_thread();
+  use_one_blas_thread();  // reproducible factorizations (kernels/blas_threads.hpp)
   try {
     Ipopt::SmartPtr<Ipopt::IpoptApplication> app = make_application(settings.verbose, result.message);
     if (!result.message.empty()) return result;
