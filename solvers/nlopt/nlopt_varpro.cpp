@@ -66,10 +66,11 @@ double squared_distance(unsigned n, const double* y, double* grad, void* data) {
 void record(ReducedState& s, const double* y) {
   const ReducedResidual& r = *s.reduced;
   TracePoint t;
-  t.iteration = static_cast<int>(std::min<long>(s.evaluations, std::numeric_limits<int>::max()));
-  t.evaluations = t.iteration;
+  // The first evaluation is at the start: iteration 0, as in every backend's trace.
+  t.evaluations = static_cast<int>(std::min<long>(s.evaluations, std::numeric_limits<int>::max()));
+  t.iteration = t.evaluations - 1;
   t.residual = r.max_node_residual();
-  t.relative_residual = t.residual / r.load_scale();
+  t.relative_residual = r.relative_residual();
   double squared = 0.0;
   for (int i = 0; i < r.num_variables(); ++i) squared += (y[i] - s.y0[i]) * (y[i] - s.y0[i]);
   t.geometry_change = r.length() * std::sqrt(squared);

@@ -25,6 +25,7 @@ ReducedResidual::ReducedResidual(const Structure& part, const ForceScale& scale,
   const Eigen::Matrix3Xd loads = part_.gravity_loads();
   for (int i = 0; i < part_.num_nodes(); ++i)
     if (!part_.fixed[i]) weight = std::max(weight, loads.col(i).norm());
+  max_free_weight_ = weight;
   load_scale_ = weight > 0.0 ? weight : reference_force_;
   q0_ = eq_.free_nodes().gather(part_.positions);
   y0_ = Eigen::VectorXd::Zero(q0_.size());
@@ -59,6 +60,12 @@ double ReducedResidual::max_node_residual() const {
   double worst = 0.0;
   for (Eigen::Index k = 0; k + 2 < f_.size(); k += 3) worst = std::max(worst, f_.segment<3>(k).norm());
   return worst;
+}
+
+double ReducedResidual::relative_residual() const {
+  const double load = max_free_weight_ > 0.0 ? max_free_weight_ : sigma_.cwiseAbs().maxCoeff();
+  const double residual = max_node_residual();
+  return load > 0.0 ? residual / load : residual;
 }
 
 Eigen::Matrix3Xd ReducedResidual::positions(const double* y) const {

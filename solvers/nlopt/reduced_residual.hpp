@@ -57,6 +57,9 @@ class ReducedResidual {
   // |sigma| is at least close to (the mean cable force is F0).
   double load_scale() const { return load_scale_; }
   double reference_force() const { return reference_force_; }  // F0 (N)
+  // The contract's relative residual of the last evaluation: the residual over
+  // the largest free-node weight under gravity, else over max |sigma*|.
+  double relative_residual() const;
 
   // All node positions (3 x n, m) at y; fixed nodes copied from the scene.
   Eigen::Matrix3Xd positions(const double* y) const;
@@ -72,6 +75,7 @@ class ReducedResidual {
   double length_ = 1.0;
   double reference_force_ = 1.0;
   double load_scale_ = 1.0;
+  double max_free_weight_ = 0.0;  // N; 0 without gravity
   double normalisation_weight_ = 0.0;  // w; 0 without cables
   Eigen::VectorXd q0_, y0_, q_, sigma_, f_, jf_;
   StressQpStatus qp_status_ = StressQpStatus::NumericalFailure;
