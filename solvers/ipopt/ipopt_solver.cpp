@@ -36,9 +36,8 @@ double max_free_node_weight(const Structure& s) {
 
 // The project's own key among the native Ipopt options.
 constexpr const char* kStartKey = "start";
-// The MUMPS ordering for Eq. 5's KKT matrix: 6 = QAMD, which detects the
-// quasi-dense force-scale row (the default automatic choice does not, and its
-// factorizations then grow with the square of the structure's size).
+// The MUMPS ordering for Eq. 5's KKT matrix: 6 = QAMD, the ordering made for
+// quasi-dense rows such as the force-scale row (docs/BACKENDS.md compares them).
 constexpr int kQuasiDenseOrdering = 6;
 
 // The equilibrium alternating-gn reaches from the part's geometry, or an
