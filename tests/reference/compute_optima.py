@@ -327,6 +327,11 @@ def solve(prob):
     c, jx, js, gx, gs = kkt(prob, xf, sigma, lam, active)
     inactive = [e for e in range(prob.m) if e not in active]
     res = max(np.abs(c).max(), np.abs(gx).max(), np.abs(gs[inactive]).max() if inactive else 0.0) / scale
+    # A bound held with a multiplier of the wrong sign is no optimum (the
+    # active-set loop can cycle on one and end at the step limit).
+    wrong_multipliers = [e for e in active
+                         if (np.isfinite(prob.lower[e]) and gs[e] < -1e-10) or
+                         (np.isfinite(prob.upper[e]) and gs[e] > 1e-10)]
     # Second-order check: the Lagrangian's Hessian on the constraints' null space.
     hxx, hxs = prob.lagrangian_hessian(xf, sigma, lam)
     nv = prob.nx + len(inactive)
@@ -349,7 +354,7 @@ def solve(prob):
         "active_bounds": sorted(int(e) for e in active),
         "reduced_hessian_min_eigenvalue": reduced_min,
         "equilibrium_residual": float(np.abs(c[:prob.nx]).max()) if prob.nx else 0.0,
-        "converged": bool(res <= KKT_TOLERANCE),
+        "converged": bool(res <= KKT_TOLERANCE and not wrong_multipliers),
     }
 
 
@@ -513,6 +518,9 @@ def main(argv):
             result["parts_standing"], result["parts"], result["eq4_relative_residual"]), file=sys.stderr)
         if not result["converged"] or fd > 1e-5:
             print("compute_optima: %s: not converged or wrong derivatives" % name, file=sys.stderr)
+            return 1
+        if result["reduced_hessian_min_eigenvalue"] is not None and not result["reduced_hessian_min_eigenvalue"] > 0.0:
+            print("compute_optima: %s: not a strict local minimum" % name, file=sys.stderr)
             return 1
         if result["parts_standing"] and not result["eq4_forces_unique"]:
             print("compute_optima: %s: a standing part has no unique forces to compare" % name, file=sys.stderr)
