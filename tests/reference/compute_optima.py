@@ -22,7 +22,8 @@ with their sign, as the scene driver gives them).
 A part that already stands (Eq. 4 at the scene geometry: sign-bounded forces
 of any level balance it to the contract's relative residual 1e-8) is the
 answer unchanged, geometry change 0, as the scene driver returns it; Eq. 5 is
-solved for the other parts.
+solved for the other parts. For such a scene the Eq. 5 optimum of all parts
+is stored too (what a backend must reach without the driver's shortcut).
 
 Usage (from the repository root):
     /usr/bin/python3 tests/reference/compute_optima.py tests/reference/scenes tests/reference/optima.json
@@ -37,6 +38,7 @@ import numpy as np
 MARGIN_FRACTION = 1e-3
 KKT_TOLERANCE = 1e-12      # infinity norm of the scaled KKT residual
 MAX_NEWTON_STEPS = 200
+INERTIA_SHIFT = 1e-3       # smallest curvature of a shifted Newton model
 EQUILIBRIUM_TOLERANCE = 1e-8  # the contract's relative residual for `converged`
 
 
@@ -291,6 +293,16 @@ def solve(prob):
         k[:prob.nx, prob.nx:nv] = hxs[:, inactive]
         k[prob.nx:nv, :prob.nx] = hxs[:, inactive].T
         jac = np.hstack([jx, js[:, inactive]])
+        # Inertia correction: where the Lagrangian's Hessian is indefinite on the
+        # constraints' null space (after releasing a bound, say), shift it to be
+        # positive definite there, so that the step descends instead of heading
+        # for a saddle point.
+        _, sv, vt = np.linalg.svd(jac)
+        null = vt[int((sv > 1e-10 * sv[0]).sum()):].T
+        if null.shape[1]:
+            low = np.linalg.eigvalsh(null.T @ k[:nv, :nv] @ null).min()
+            if low <= 0.0:
+                k[:nv, :nv] += (INERTIA_SHIFT - low) * np.eye(nv)
         k[:nv, nv:] = jac.T
         k[nv:, :nv] = jac
         rhs = -np.concatenate([gx, gs[inactive], c])
@@ -465,6 +477,7 @@ def reference_optimum(scene, rng):
     if moving:
         result = solve(Problem(subscene(scene, moving, moving_fixed)))
         forces[moving] = result["forces"]
+        result["active_bounds"] = [moving[k] for k in result["active_bounds"]]  # scene numbering
     else:
         x = scene["x0"]
         result = {"positions": x.tolist(), "geometry_change": 0.0, "kkt_residual": None,
@@ -473,12 +486,22 @@ def reference_optimum(scene, rng):
     for r in stand:
         for k, sigma in parts[r][2].items():
             forces[attached[k]] = sigma
-    if unattached:
-        weight = sum(np.linalg.norm(whole.loads[i]) for i in whole.free)
-        f0 = weight if weight > 0.0 else 1.0
-        for e in unattached:
-            forces[e] = f0 if elements[e][2] == "cable" else -f0
+    weight = sum(np.linalg.norm(whole.loads[i]) for i in whole.free)
+    f0 = weight if weight > 0.0 else 1.0
+    for e in unattached:
+        forces[e] = f0 if elements[e][2] == "cable" else -f0
     result["forces"] = forces.tolist()
+    if stand:
+        # What a backend run without the driver's shortcut must reach: Eq. 5
+        # for every part, the standing ones included.
+        direct = solve(whole)
+        direct_forces = np.zeros(len(elements))
+        direct_forces[attached] = direct["forces"]
+        for e in unattached:
+            direct_forces[e] = f0 if elements[e][2] == "cable" else -f0
+        direct["forces"] = direct_forces.tolist()
+        direct["active_bounds"] = [attached[k] for k in direct["active_bounds"]]
+        result["eq5_without_shortcut"] = direct
     result["derivative_check_max_error"] = fd
     result["stands"] = bool(stand) and not moving
     result["parts_standing"] = len(stand)
@@ -533,6 +556,19 @@ def main(argv):
                 "derivative_check_max_error"]
         if gravity:
             keys += ["stands", "eq4_relative_residual", "unattached_elements"]
+        direct = result.get("eq5_without_shortcut")
+        if direct is not None:
+            print("%-34s without the shortcut: |dx| %.12g  KKT %.2e  steps %d  active %s  min eig %.3g" % (
+                scene["name"], direct["geometry_change"], direct["kkt_residual"], direct["newton_steps"],
+                direct["active_bounds"], direct["reduced_hessian_min_eigenvalue"]), file=sys.stderr)
+            if not direct["converged"] or not direct["reduced_hessian_min_eigenvalue"] > 0.0:
+                print("compute_optima: %s: Eq. 5 without the shortcut: no strict local minimum found" % name,
+                      file=sys.stderr)
+                return 1
+            result["eq5_without_shortcut"] = {k: direct[k] for k in (
+                "geometry_change", "kkt_residual", "equilibrium_residual", "newton_steps", "active_bounds",
+                "reduced_hessian_min_eigenvalue", "positions", "forces")}
+            keys.append("eq5_without_shortcut")
         elif result["parts_standing"]:
             print("compute_optima: %s: a part stands without load; the entry format assumes none does" % name,
                   file=sys.stderr)
