@@ -6,7 +6,9 @@
 // Nothing here calls model/verify: equilibrium, signs and the geometry change
 // are recomputed below from the scene file and the returned numbers, and the
 // geometry change is compared with the reference optimum, so a backend that
-// returns a wrong answer fails even when its own verification passes.
+// returns a wrong answer fails even when its own verification passes. Scenes
+// that already stand must come back unchanged; run without the driver's
+// shortcut, the Eq. 5 solvers must reach the stored Eq. 5 optimum instead.
 //
 //   conformance_test --dump-scenes DIR   writes scenes::backend_suite_scenes()
 //                                        as the scene files the references use
@@ -47,6 +49,9 @@ constexpr double kBeatsOptimumSlack = 1e-6;
 // A scene that stands has unique forces; the stress QP's may differ from the
 // reference's by this fraction of the largest reference force.
 constexpr double kStandingForce = 1e-6;
+// A sign bound active at the reference optimum: the backend's force is at the
+// margin within this fraction of it.
+constexpr double kActiveBound = 1e-3;
 
 struct Reference {
   std::string name, file;
@@ -59,7 +64,26 @@ struct Reference {
   Eigen::VectorXd forces;        // N
   // Elements between two fixed nodes: in no part and not in Eq. 5 (sign only).
   std::vector<int> unattached_elements;
+  // For a scene that stands: Eq. 5's optimum, what a backend run without the
+  // driver's shortcut must reach when it solves Eq. 5 (change 0 otherwise).
+  double direct_geometry_change = 0.0;  // m
+  Eigen::Matrix3Xd direct_positions;    // m
+  Eigen::VectorXd direct_forces;        // N
+  std::vector<int> direct_active_bounds;
 };
+
+Eigen::Matrix3Xd read_positions(const nlohmann::json& x) {
+  Eigen::Matrix3Xd p(3, static_cast<Eigen::Index>(x.size()));
+  for (std::size_t i = 0; i < x.size(); ++i)
+    for (int k = 0; k < 3; ++k) p(k, static_cast<Eigen::Index>(i)) = x[i][k].get<double>();
+  return p;
+}
+
+Eigen::VectorXd read_forces(const nlohmann::json& f) {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(f.size()));
+  for (std::size_t e = 0; e < f.size(); ++e) v[static_cast<Eigen::Index>(e)] = f[e].get<double>();
+  return v;
+}
 
 std::vector<Reference> load_references() {
   const nlohmann::json j = read_json_file(kReferenceDir + "optima.json");
@@ -72,13 +96,15 @@ std::vector<Reference> load_references() {
     r.stands = s.value("stands", false);
     r.unattached_elements = s.value("unattached_elements", std::vector<int>{});
     r.geometry_change = s.at("geometry_change").get<double>();
-    const auto& x = s.at("positions");
-    r.positions.resize(3, static_cast<Eigen::Index>(x.size()));
-    for (std::size_t i = 0; i < x.size(); ++i)
-      for (int k = 0; k < 3; ++k) r.positions(k, static_cast<Eigen::Index>(i)) = x[i][k].get<double>();
-    const auto& f = s.at("forces");
-    r.forces.resize(static_cast<Eigen::Index>(f.size()));
-    for (std::size_t e = 0; e < f.size(); ++e) r.forces[static_cast<Eigen::Index>(e)] = f[e].get<double>();
+    r.positions = read_positions(s.at("positions"));
+    r.forces = read_forces(s.at("forces"));
+    if (s.contains("eq5_without_shortcut")) {
+      const auto& d = s.at("eq5_without_shortcut");
+      r.direct_geometry_change = d.at("geometry_change").get<double>();
+      r.direct_positions = read_positions(d.at("positions"));
+      r.direct_forces = read_forces(d.at("forces"));
+      r.direct_active_bounds = d.at("active_bounds").get<std::vector<int>>();
+    }
   }
   return refs;
 }
@@ -307,6 +333,77 @@ std::string case_name(const ::testing::TestParamInfo<Case>& info) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllBackends, Conformance, ::testing::ValuesIn(all_cases()), case_name);
+
+std::vector<Case> standing_cases() {
+  std::vector<Case> cases;
+  for (const Case& c : all_cases())
+    if (references()[c.reference].stands) cases.push_back(c);
+  return cases;
+}
+
+class ConformanceWithoutShortcut : public ::testing::TestWithParam<Case> {};
+
+// A scene that stands, solved without the driver's shortcut: the Eq. 5 solvers
+// must reach Eq. 5's optimum, which holds the mean cable force at W and so
+// moves the scene; the alternating schemes balance the scene at its own force
+// level (no cable-sum row in Eq. 4 under gravity) and must not move it.
+TEST_P(ConformanceWithoutShortcut, ReachesEq5OrKeepsTheScene) {
+  const Case c = GetParam();
+  const Reference& ref = references()[c.reference];
+  const Structure scene = read_scene_file(kReferenceDir + "scenes/" + ref.file);
+  SolveOptions options;
+  options.time_limit_s = 60.0;
+  const SolveResult r = make_solver(c.backend)->Solve(scene, options, DriverControls{false});
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  ASSERT_TRUE(r.positions.allFinite() && r.forces.allFinite());
+  EXPECT_LE(relative_residual(scene, r.positions, r.forces), kEquilibriumTolerance);
+  const double f0 = reference_force(scene, 1);
+  const double margin = kMarginFraction * f0;
+  for (int e = 0; e < scene.num_elements(); ++e) {
+    if (scene.elements[e].kind == ElementKind::Cable) {
+      EXPECT_GE(r.forces[e], margin * (1.0 - kMarginSlack)) << "cable " << e;
+    } else {
+      EXPECT_LE(r.forces[e], -margin * (1.0 - kMarginSlack)) << "strut " << e;
+    }
+  }
+  const double change = (r.positions - scene.positions).norm();
+  const bool solves_eq5 = expectation(c.backend, ref.name).same_optimum;
+  const double expected_change = solves_eq5 ? ref.direct_geometry_change : 0.0;
+  std::printf("%-15s %-30s without the shortcut: geometry change %.12g m, expected %.12g m\n", c.backend.c_str(),
+              ref.name.c_str(), change, expected_change);
+  if (!solves_eq5) {
+    EXPECT_EQ(change, 0.0);
+    return;
+  }
+  EXPECT_GE(change / expected_change, 1.0 - kBeatsOptimumSlack) << "better than the reference optimum";
+  EXPECT_LE(change / expected_change, 1.0 + kSameOptimumGeometryChange);
+  std::vector<bool> in_eq5(scene.num_elements(), true);
+  for (int e : ref.unattached_elements) in_eq5[e] = false;
+  double cable_sum = 0.0, force_difference = 0.0;
+  int cables = 0;
+  for (int e = 0; e < scene.num_elements(); ++e) {
+    if (!in_eq5[e]) continue;
+    force_difference = std::max(force_difference, std::abs(r.forces[e] - ref.direct_forces[e]));
+    if (scene.elements[e].kind == ElementKind::Cable) cable_sum += r.forces[e], ++cables;
+  }
+  force_difference /= ref.direct_forces.cwiseAbs().maxCoeff();
+  const double position_difference =
+      (r.positions - ref.direct_positions).colwise().norm().maxCoeff() / scene.mean_element_length();
+  std::printf("%-15s %-30s without the shortcut: ratio %.8f, differences: positions %.1e, forces %.1e\n",
+              c.backend.c_str(), ref.name.c_str(), change / expected_change, position_difference, force_difference);
+  EXPECT_LE(force_difference, kSameOptimumForce);
+  EXPECT_LE(position_difference, kSameOptimumPosition);
+  EXPECT_NEAR(cable_sum / cables, f0, 1e-6 * f0) << "mean cable force";
+  // The sign bounds active at the optimum hold their force at the margin.
+  for (int e : ref.direct_active_bounds) {
+    std::printf("%-15s %-30s without the shortcut: element %d at the margin: force / margin %.9f\n",
+                c.backend.c_str(), ref.name.c_str(), e, std::abs(r.forces[e]) / margin);
+    EXPECT_NEAR(std::abs(r.forces[e]), margin, kActiveBound * margin) << e;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(StandingScenes, ConformanceWithoutShortcut, ::testing::ValuesIn(standing_cases()),
+                         case_name);
 
 // The committed scenes are the suite's scenes, bit for bit (a change of a
 // generator or of the perturbation must come with new references).
