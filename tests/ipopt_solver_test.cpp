@@ -216,14 +216,18 @@ TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
   bad.backend_options = {{"prestress", "loose"}};
   EXPECT_THROW(solver.ValidateOptions(bad), InputError);
 
-  SolveOptions capped_options;
+  SolveOptions capped_options;  // the default, named
   capped_options.backend_options = {{"prestress", "cap"}};
+  SolveOptions held_options;
+  held_options.backend_options = {{"prestress", "equal"}};
   const std::string reference = std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/";
   for (const auto& [name, improves] : std::vector<std::pair<std::string, bool>>{{"prism-7-gravity", true},
                                                                                  {"prism-3-gravity", false}}) {
     const Structure s = read_scene_file(reference + name + ".scene.json");
-    const SolveResult held = solver.Solve(s, no_shortcut(), DriverControls{false});
+    const SolveResult held = solver.Solve(s, held_options, DriverControls{false});
     const SolveResult capped = solver.Solve(s, capped_options, DriverControls{false});
+    const SolveResult by_default = solver.Solve(s, no_shortcut(), DriverControls{false});
+    EXPECT_EQ(by_default.stats.geometry_change, capped.stats.geometry_change) << name << ": cap is the default";
     ASSERT_EQ(held.status, Status::Converged) << name << ": " << held.message;
     ASSERT_EQ(capped.status, Status::Converged) << name << ": " << capped.message;
     EXPECT_TRUE(verify(s, capped.positions, capped.forces, SolveOptions{}.tolerance).ok) << name;

@@ -49,11 +49,11 @@ enum class IpoptStart { Scene, AlternatingGn };
 enum class IpoptPrestress { Equal, Cap };
 
 // `start=scene|alternating-gn` (default scene), `prestress=equal|cap`
-// (default equal) and native Ipopt options given as `--option key=value`,
+// (default cap: never farther than `equal`, docs/THEORY-force-scale.md) and native Ipopt options given as `--option key=value`,
 // checked against Ipopt's own registry (name, type and range).
 struct IpoptOptions {
   IpoptStart start = IpoptStart::Scene;
-  IpoptPrestress prestress = IpoptPrestress::Equal;
+  IpoptPrestress prestress = IpoptPrestress::Cap;
   OptionPairs native;  // every pair except `start` and `prestress`
   std::vector<IpoptOption> typed;  // `native` with the types of Ipopt's registry
   static IpoptOptions FromPairs(const OptionPairs& pairs);
