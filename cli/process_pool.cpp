@@ -153,6 +153,7 @@ class Coordinator {
 
     while (ended_ < total) {
       poll_once();
+      if (options_.on_tick) options_.on_tick();
       check_deadlines();
       retire_idle_workers();
       if (workers_.empty() && !queue_.empty()) {
@@ -312,6 +313,14 @@ class Coordinator {
   }
 
   int poll_timeout_ms() const {
+    const int deadline_ms = deadline_timeout_ms();
+    if (!options_.on_tick) return deadline_ms;
+    const int tick_ms = std::max(1, static_cast<int>(std::ceil(options_.tick_interval_s * 1000.0)));
+    return deadline_ms < 0 ? tick_ms : std::min(deadline_ms, tick_ms);
+  }
+
+  // Until the soonest deadline of a running job; -1 (wait indefinitely) when none.
+  int deadline_timeout_ms() const {
     if (options_.kill_after_s <= 0.0) return -1;
     bool any_busy = false;
     double soonest = 0.0;

@@ -38,6 +38,10 @@ struct ProcessPoolOptions {
   double kill_after_s = 0.0;   // a job's deadline (s); 0: none
   // Called by the coordinating process when a job has ended: its number and outcome.
   std::function<void(std::size_t, const JobOutcome&)> on_job_end;
+  // Called by the coordinating process while it waits, at least every
+  // tick_interval_s, so that a status line can show the time between job ends.
+  std::function<void()> on_tick;
+  double tick_interval_s = 0.25;  // s
 };
 
 struct ProcessPoolRun {
