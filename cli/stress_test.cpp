@@ -69,8 +69,25 @@ StressReport run_stress_test(const StressTestOptions& options) {
   if (!(options.time_limit_s > 0.0) || !std::isfinite(options.time_limit_s))
     throw InputError("command line", "--time-limit", "must be a finite number > 0");
 
-  // Scenes: names or groups of the built-in set, plus files.
-  std::vector<scenes::BaseScene> all = scenes::base_scenes(options.data_dir);
+  std::vector<std::string> families = split_names(options.families);
+  if (families.empty()) families = scenes::family_names();
+  for (const std::string& f : families) scenes::family_levels(f);  // rejects unknown names
+  std::vector<std::string> solvers = split_names(options.solvers);
+  if (solvers.empty()) solvers = solver_names();
+  SolveOptions solve_options;
+  solve_options.tolerance = options.tolerance;
+  solve_options.time_limit_s = options.time_limit_s;
+  solve_options.backend_options = options.backend_options;
+  std::string why;
+  if (!solve_options.IsValid(&why)) throw InputError("command line", "options", why);
+  for (const std::string& name : solvers) make_solver(name)->ValidateOptions(solve_options);
+
+  // Scenes: names or groups of the built-in set, plus files. Usage errors
+  // above come first, so that a bad option gets its one line alone.
+  std::vector<scenes::SkippedFile> skipped;
+  std::vector<scenes::BaseScene> all = scenes::base_scenes(options.data_dir, &skipped);
+  for (const scenes::SkippedFile& file : skipped) std::fprintf(stderr, "tensegrity: %s\n", file.reason.c_str());
+  std::fflush(stderr);
   for (const std::string& file : options.scene_files) {
     Structure s = read_scene_file(file);
     std::string name = fs::path(file).filename().string();
@@ -96,18 +113,6 @@ StressReport run_stress_test(const StressTestOptions& options) {
                        "unknown scene (known: groups reference, tower, character; " + names + ")");
     }
   }
-  std::vector<std::string> families = split_names(options.families);
-  if (families.empty()) families = scenes::family_names();
-  for (const std::string& f : families) scenes::family_levels(f);  // rejects unknown names
-  std::vector<std::string> solvers = split_names(options.solvers);
-  if (solvers.empty()) solvers = solver_names();
-  SolveOptions solve_options;
-  solve_options.tolerance = options.tolerance;
-  solve_options.time_limit_s = options.time_limit_s;
-  solve_options.backend_options = options.backend_options;
-  std::string why;
-  if (!solve_options.IsValid(&why)) throw InputError("command line", "options", why);
-  for (const std::string& name : solvers) make_solver(name)->ValidateOptions(solve_options);
 
   std::vector<Case> cases;
   for (const scenes::BaseScene* b : scenes)
@@ -133,6 +138,7 @@ StressReport run_stress_test(const StressTestOptions& options) {
 
   StressReport report;
   report.options = options;
+  report.skipped = std::move(skipped);
   const std::size_t total = cases.size() * solvers.size();
   report.trials.resize(total);
   const double overrun_s = 2.0 * options.time_limit_s + 5.0;
@@ -429,6 +435,9 @@ json stress_report_to_json(const StressReport& report) {
       rejected.push_back(t.scene + "/" + t.family + "/" + t.level + "/" + std::to_string(t.trial) + ": " +
                          t.message);
   j["rejected_inputs"] = rejected;
+  json skipped = json::array();
+  for (const scenes::SkippedFile& file : report.skipped) skipped.push_back({{"file", file.file}, {"reason", file.reason}});
+  j["skipped"] = skipped;
 
   // Every solve, in the report's fixed order.
   json trials = json::array();
@@ -465,6 +474,7 @@ json stress_report_to_json(const StressReport& report) {
   totals["converged"] = converged;
   totals["crashed"] = crashed;
   totals["statuses"] = statuses;
+  totals["skipped_files"] = report.skipped.size();
   if (times) {
     totals["wall_seconds"] = report.pool_wall_seconds;
     totals["cpu_seconds"] = report.cpu_seconds;
@@ -526,6 +536,7 @@ void print_stress_table(const StressReport& report, std::FILE* out) {
                  report.serial_wall_seconds, report.serial_wall_seconds / std::max(1e-9, report.pool_wall_seconds));
   std::fprintf(out, "speed-up estimate (sum of job wall times / wall): %.2f\n",
                report.sum_job_wall_seconds / std::max(1e-9, report.pool_wall_seconds));
+  if (!report.skipped.empty()) std::fprintf(out, "skipped %zu unreadable data files\n", report.skipped.size());
   std::fflush(out);
 }
 

@@ -71,9 +71,13 @@ struct StressReport {
   double cpu_seconds = 0.0;         // of every process, during the solves
   double sum_job_wall_seconds = 0.0;
   double serial_wall_seconds = 0.0;  // of the solves on one worker, when measured (else 0)
+  std::vector<scenes::SkippedFile> skipped;  // bad files of the data folder, left out
 };
 
-// Throws InputError for unknown scene, family or solver names.
+// Throws InputError for unknown scene, family or solver names and for a bad
+// --scene file. A bad file of the data folder is named on standard error in
+// one line (`tensegrity: FILE: ITEM: REASON`), left out and listed in
+// StressReport::skipped.
 StressReport run_stress_test(const StressTestOptions& options);
 
 // The report file; with options.with_times false it holds no timing and is
