@@ -451,8 +451,7 @@ std::vector<std::size_t> longest_first(const std::vector<double>& estimated_cost
 
 double estimated_solve_cost(const std::string& backend, int elements) {
   // CPU time per element relative to alternating-gn, rounded from the
-  // benchmark tables: the faithful scheme and NLopt take hundreds to thousands
-  // of iterations, Ipopt tens of iterations each with a sparse factorisation.
+  // benchmark tables (docs/BENCHMARKS.md): only the order of the jobs uses it.
   static const std::map<std::string, double> kFactor = {
       {"alternating-gn", 1.0}, {"ipopt", 20.0}, {"alternating", 60.0}, {"nlopt", 60.0}};
   const auto it = kFactor.find(backend);

@@ -2,7 +2,7 @@
 // Independent jobs in forked worker processes (`batch`, `stress-test`).
 //
 // Threads of one process would take turns through the process-wide MUMPS lock
-// of every Ipopt run (kernels/ipopt_run.hpp); processes share nothing, so N
+// of every Ipopt run (kernels/ipopt_solve.hpp); processes share nothing, so N
 // workers run N solves at once. Each worker is forked from the coordinating
 // process, which holds every input already, and receives only job numbers; a
 // job's result travels back as a string (the caller's serialisation). A worker

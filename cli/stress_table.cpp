@@ -9,7 +9,7 @@
 namespace tensegrity::cli {
 
 void print_stress_table(const StressReport& report, std::FILE* out) {
-  // Statuses in the order of the contract, then the rest of the row.
+  // Statuses in the order of docs/FORMATS.md, then the rest of the row.
   const Status columns[] = {Status::Converged, Status::Stalled, Status::MaxIterations, Status::TimeLimit,
                             Status::NumericalError, Status::Infeasible};
   struct Row {

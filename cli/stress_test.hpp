@@ -41,7 +41,7 @@ struct StressTestOptions {
   // verify is written there as <scene>_<family>_<level>_t<trial>_<solver>.scene.json
   // (to reproduce it with `tensegrity solve`).
   std::string failures_dir;
-  // Called from the coordinating thread: trials done, total, failures so far.
+  // Called by the coordinating process: trials done, total, failures so far.
   std::function<void(int, int, int)> progress;
 };
 
@@ -81,7 +81,7 @@ struct StressReport {
 StressReport run_stress_test(const StressTestOptions& options);
 
 // The report file; with options.with_times false it holds no timing and is
-// bit-identical for the same options whatever the thread count.
+// bit-identical for the same options whatever the number of worker processes.
 nlohmann::json stress_report_to_json(const StressReport& report);
 
 // Per backend: trials, the count of each status, rejected inputs, crashed
