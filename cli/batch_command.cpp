@@ -1,6 +1,6 @@
 // tensegrity batch SCENE|DIR... --out-dir DIR [--solver NAME[,NAME...]] [--jobs N] [--tol T]
 //     [--time-limit S] [--kill-after S] [--max-iterations N] [--no-skip] [--measure-speedup]
-//     [--trace] [--json FILE|-]
+//     [--trace] [--json FILE|-] [--quiet]
 //
 // Solves independent (scene, backend) jobs in forked worker processes, the
 // longest estimated first, each solve single-threaded (one BLAS thread), so N
@@ -9,7 +9,9 @@
 // ones `solve` writes. Prints one line per job and a summary with the wall
 // time, the CPU time of every process and the speed-up (sum of the jobs' wall
 // times over the total wall time; with --measure-speedup also the wall time of
-// one worker alone). Exit status: 0 every job converged, 1 otherwise (also
+// one worker alone). On standard error, as for `simulate`: a status line on a
+// terminal (cli/progress.hpp), else a line at every tenth of the jobs; none
+// with --quiet. Exit status: 0 every job converged, 1 otherwise (also
 // when some scene files could not be read: each is named on stderr and
 // skipped, the others are solved and written, so the run has output), 2 bad
 // usage before anything runs.
@@ -24,8 +26,9 @@
 
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
-#include "cli/process_pool.hpp"
 #include "cli/batch_jobs.hpp"
+#include "cli/process_pool.hpp"
+#include "cli/progress.hpp"
 #include "model/errors.hpp"
 #include "model/json_text.hpp"
 #include "model/scene_io.hpp"
@@ -47,6 +50,7 @@ struct BatchArgs {
   bool no_skip = false;
   bool measure_speedup = false;
   bool trace = false;
+  bool quiet = false;
 };
 
 std::string scene_stem(const std::string& path) {
@@ -114,6 +118,56 @@ ReadableScenes read_scenes(const std::vector<std::string>& files) {
   return r;
 }
 
+// How far the solves of one run are, on standard error: a status line
+// rewritten in place on a terminal, else a line at every tenth of the jobs.
+class BatchProgress {
+ public:
+  BatchProgress(bool enabled, std::size_t total)
+      : enabled_(enabled), on_terminal_(stderr_is_terminal()), line_(enabled && on_terminal_), total_(total) {}
+
+  SolveJobsObserver observer() {
+    SolveJobsObserver o;
+    o.on_job_end = [this](const SolveJobResult& r) { job_ended(r.status == Status::Converged); };
+    o.on_tick = [this] {
+      if (line_.due()) line_.show(text(false).c_str());
+    };
+    return o;
+  }
+  // Ends a shown status line with a newline, so that the table starts a line of its own.
+  void finish() { line_.finish(); }
+
+ private:
+  void job_ended(bool converged) {
+    ++done_;
+    if (!converged) ++failed_;
+    if (!enabled_) return;
+    if (on_terminal_) {
+      if (line_.due() || (done_ == total_ && line_.shown())) line_.show(text(false).c_str());
+      return;
+    }
+    const int tenth = static_cast<int>(10 * done_ / total_);
+    if (tenth > last_tenth_) {
+      last_tenth_ = tenth;
+      std::fprintf(stderr, "%s\n", text(true).c_str());
+      std::fflush(stderr);
+    }
+  }
+
+  std::string text(bool with_percent) const {
+    char percent[16] = "";
+    if (with_percent) std::snprintf(percent, sizeof percent, " (%d %%)", static_cast<int>(100 * done_ / total_));
+    char t[160];
+    std::snprintf(t, sizeof t, "batch: %zu/%zu solves done%s, %zu failed, %.1f s", done_, total_, percent, failed_,
+                  line_.elapsed());
+    return t;
+  }
+
+  bool enabled_, on_terminal_;
+  ProgressLine line_;
+  std::size_t total_, done_ = 0, failed_ = 0;
+  int last_tenth_ = 0;
+};
+
 }  // namespace
 
 void register_batch_command(CLI::App& app, CommandRunner& run) {
@@ -142,6 +196,8 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--json", args->json,
                   "Also write the whole report as one JSON object to this file (- : standard output, and the "
                   "table goes to standard error)");
+  cmd->add_flag("--quiet", args->quiet,
+                "No progress on stderr; with --json - also no table unless a job failed (errors still print)");
   cmd->callback([args, &run] {
     run = [args] {
       if (args->jobs == 0) args->jobs = available_cores();
@@ -192,14 +248,18 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       SolveJobsRun serial;
       const bool measure = args->measure_speedup && args->jobs > 1;
       if (measure) {
-        std::cerr << "batch: " << what << ", 1 job (for the speed-up)...\n";
+        if (!args->quiet) std::cerr << "batch: " << what << ", 1 job (for the speed-up)...\n";
         SolveJobSettings one = settings;
         one.workers = 1;
         one.write_files = false;
-        serial = run_solve_jobs(jobs, one);
+        BatchProgress progress(!args->quiet, jobs.size());
+        serial = run_solve_jobs(jobs, one, progress.observer());
+        progress.finish();
       }
-      std::cerr << "batch: " << what << ", " << args->jobs << " jobs...\n";
-      const SolveJobsRun parallel = run_solve_jobs(jobs, settings);
+      if (!args->quiet) std::cerr << "batch: " << what << ", " << args->jobs << " jobs...\n";
+      BatchProgress progress(!args->quiet, jobs.size());
+      const SolveJobsRun parallel = run_solve_jobs(jobs, settings, progress.observer());
+      progress.finish();
 
       BatchReport report;
       report.jobs = &jobs;
@@ -209,11 +269,13 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       report.skipped = input.skipped;
       report.settings = &settings;
       const bool json_to_stdout = args->json == "-";
-      std::FILE* table = json_to_stdout ? stderr : stdout;
-      print_batch_table(report, table, solver_names.size() > 1);
+      const bool all_converged = input.skipped.empty() && parallel.converged == jobs.size();
+      // --quiet keeps a table bound for standard error only when the run failed: it says which jobs did.
+      if (!(args->quiet && json_to_stdout && all_converged))
+        print_batch_table(report, json_to_stdout ? stderr : stdout, solver_names.size() > 1);
       if (!args->json.empty())
         write_text_file_atomically(args->json, to_json_text(batch_report_to_json(report)) + "\n");
-      return input.skipped.empty() && parallel.converged == jobs.size() ? 0 : 1;
+      return all_converged ? 0 : 1;
     };
   });
 }

@@ -81,28 +81,33 @@ const char* end_name(JobEnd end) {
 
 }  // namespace
 
-SolveJobsRun run_solve_jobs(const std::vector<SolveJob>& jobs, const SolveJobSettings& settings) {
+SolveJobsRun run_solve_jobs(const std::vector<SolveJob>& jobs, const SolveJobSettings& settings,
+                            const SolveJobsObserver& observer) {
   use_one_blas_thread();
   std::vector<double> cost;
   for (const SolveJob& job : jobs) cost.push_back(estimated_solve_cost(job.solver, job.scene->num_elements()));
+  SolveJobsRun run;
+  run.results.resize(jobs.size());
   ProcessPoolOptions pool;
   pool.workers = settings.workers;
   pool.kill_after_s = settings.kill_after_s;
-  const ProcessPoolRun done = run_in_worker_processes(
-      jobs.size(), longest_first(cost), [&](std::size_t i) { return solve_in_worker(jobs[i], settings); }, pool);
-
-  SolveJobsRun run;
-  run.wall_seconds = done.wall_seconds;
-  run.cpu_seconds = done.cpu_seconds;
-  for (std::size_t i = 0; i < jobs.size(); ++i) {
-    const JobOutcome& o = done.outcomes[i];
+  pool.on_job_end = [&](std::size_t i, const JobOutcome& o) {
     SolveJobResult r = o.end == JobEnd::Finished ? from_worker(o.result) : without_worker_result(jobs[i], o, settings);
     r.end = o.end;
     r.wall_seconds = o.wall_seconds;
+    if (observer.on_job_end) observer.on_job_end(r);
+    run.results[i] = std::move(r);
+  };
+  pool.on_tick = observer.on_tick;
+  const ProcessPoolRun done = run_in_worker_processes(
+      jobs.size(), longest_first(cost), [&](std::size_t i) { return solve_in_worker(jobs[i], settings); }, pool);
+
+  run.wall_seconds = done.wall_seconds;
+  run.cpu_seconds = done.cpu_seconds;
+  for (const SolveJobResult& r : run.results) {
     run.sum_solve_seconds += r.seconds;
     run.sum_job_wall_seconds += r.wall_seconds;
     if (r.status == Status::Converged) ++run.converged;
-    run.results.push_back(std::move(r));
   }
   return run;
 }

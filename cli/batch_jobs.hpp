@@ -3,6 +3,7 @@
 // and its report: a text table and one JSON object (format
 // "tensegrity-batch-report", docs/FORMATS.md, docs/schemas/batch-report.schema.json).
 #include <cstdio>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
@@ -51,10 +52,18 @@ struct SolveJobsRun {
   std::size_t converged = 0;
 };
 
+// Called by the coordinating process during run_solve_jobs: with each job's
+// result as it ends, and while waiting (cli/process_pool.hpp, on_tick).
+struct SolveJobsObserver {
+  std::function<void(const SolveJobResult&)> on_job_end;
+  std::function<void()> on_tick;
+};
+
 // Solves every job, longest estimated first, on settings.workers processes.
 // A job whose worker crashed or was killed gets a solution file all the same
 // (the scene's positions, zero forces, status numerical_error or time_limit).
-SolveJobsRun run_solve_jobs(const std::vector<SolveJob>& jobs, const SolveJobSettings& settings);
+SolveJobsRun run_solve_jobs(const std::vector<SolveJob>& jobs, const SolveJobSettings& settings,
+                            const SolveJobsObserver& observer = {});
 
 struct BatchReport {
   const std::vector<SolveJob>* jobs = nullptr;

@@ -27,7 +27,7 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
   struct Args {
     std::string scene, solution;
     double tol = 1e-8;
-    bool stability = false;     // --stability: tangent-stiffness test (solvers/stability.hpp)
+    bool stability = false;     // --stability: tangent-stiffness test (simulation/stability.hpp)
     std::string design;         // material model for it; else linear cords
     double cable_strain = 0.1;  // strain of those linear cords under their force
     bool json = false;          // --json: one JSON object on standard output instead of the text

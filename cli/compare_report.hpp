@@ -6,7 +6,7 @@
 //   seconds            wall time since the backend's start (s)
 //   iteration          0 is the common start point, then the backend's own count
 //   residual           max free-node net force (N)
-//   relative_residual  residual / load scale (CONTRACT.md)
+//   relative_residual  residual / load scale (docs/FORMATS.md)
 //   geometry_change    |x - x_scene| (m)
 //   backend_objective  backend-specific: each backend's own objective, not comparable
 // The start point (iteration 0, 0 s) is the same for every backend: the scene's

@@ -4,11 +4,11 @@
 //
 // Runs only the stages the input needs: form finding (skipped when the input
 // geometry already is a tensegrity), stiffness scaling (the QP of
-// formulations/stiffness_qp.hpp), rest lengths (formulations/rest_lengths.hpp).
+// formulations/stiffness_qp.hpp), rest lengths (design/rest_lengths.hpp).
 // Writes a self-contained design file (model/design.hpp), the fabrication
 // sheet as CSV and a printable cut list (cli/fabrication_sheet.hpp). With --compare-naive
 // it also settles the design and the paper's constant-fraction baseline under
-// gravity (solvers/naive_sweep.hpp) and records the comparison.
+// gravity (design/naive_sweep.hpp) and records the comparison.
 //
 // Exit status: 0 a design that verifies was written; 2 bad input (nothing
 // computed); 1 the input is valid but no buildable design exists (form finding

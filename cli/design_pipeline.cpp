@@ -98,7 +98,7 @@ std::string element_description(const Structure& s, int e) {
 }
 
 // Why the stiffness QP found no forces: measure the smallest achievable
-// overload of the material caps (solvers/force_cap.hpp) and name the cable.
+// overload of the material caps (design/force_cap.hpp) and name the cable.
 std::string stiffness_failure_reason(const Design& d, const StiffnessProblem& problem, const StiffnessResult& qr,
                                      double margin) {
   const Structure& s = d.structure;

@@ -3,7 +3,7 @@
 // form finding when the input is not yet a tensegrity, stiffness scaling (the
 // QP of formulations/stiffness_qp.hpp: cable forces as close as possible to the
 // material's force at the target strain, within its measured range) and rest
-// lengths (formulations/rest_lengths.hpp), then verification.
+// lengths (design/rest_lengths.hpp), then verification.
 #include <cmath>
 #include <string>
 #include <utility>

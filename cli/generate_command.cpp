@@ -2,7 +2,7 @@
 // of data/reference/ (regular prisms n = 3..12 and the expandable octahedron,
 // each plain and with gravity, masses and fixed bottom nodes).
 // tensegrity generate tower [--gravity] [--noise X] [--seed S] --out FILE: the
-// benchmark's large tower (bench/large_scenes.hpp) as built, before form
+// benchmark's large tower (scenes/towers.hpp) as built, before form
 // finding; data/bench/tower-*.scene.json are its solved equilibria (README).
 #include <filesystem>
 #include <iostream>

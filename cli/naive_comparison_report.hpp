@@ -1,6 +1,6 @@
 #pragma once
 // How `tensegrity design --compare-naive` shows the settling comparison
-// (solvers/naive_sweep.hpp): a table for standard error and a record for the
+// (design/naive_sweep.hpp): a table for standard error and a record for the
 // design file's "design" key.
 #include <string>
 

@@ -153,6 +153,7 @@ class Coordinator {
 
     while (ended_ < total) {
       poll_once();
+      if (options_.on_tick) options_.on_tick();
       check_deadlines();
       retire_idle_workers();
       if (workers_.empty() && !queue_.empty()) {
@@ -312,6 +313,14 @@ class Coordinator {
   }
 
   int poll_timeout_ms() const {
+    const int deadline_ms = deadline_timeout_ms();
+    if (!options_.on_tick) return deadline_ms;
+    const int tick_ms = std::max(1, static_cast<int>(std::ceil(options_.tick_interval_s * 1000.0)));
+    return deadline_ms < 0 ? tick_ms : std::min(deadline_ms, tick_ms);
+  }
+
+  // Until the soonest deadline of a running job; -1 (wait indefinitely) when none.
+  int deadline_timeout_ms() const {
     if (options_.kill_after_s <= 0.0) return -1;
     bool any_busy = false;
     double soonest = 0.0;
@@ -442,8 +451,7 @@ std::vector<std::size_t> longest_first(const std::vector<double>& estimated_cost
 
 double estimated_solve_cost(const std::string& backend, int elements) {
   // CPU time per element relative to alternating-gn, rounded from the
-  // benchmark tables: the faithful scheme and NLopt take hundreds to thousands
-  // of iterations, Ipopt tens of iterations each with a sparse factorisation.
+  // benchmark tables (docs/BENCHMARKS.md): only the order of the jobs uses it.
   static const std::map<std::string, double> kFactor = {
       {"alternating-gn", 1.0}, {"ipopt", 20.0}, {"alternating", 60.0}, {"nlopt", 60.0}};
   const auto it = kFactor.find(backend);

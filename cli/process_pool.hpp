@@ -2,7 +2,7 @@
 // Independent jobs in forked worker processes (`batch`, `stress-test`).
 //
 // Threads of one process would take turns through the process-wide MUMPS lock
-// of every Ipopt run (kernels/ipopt_run.hpp); processes share nothing, so N
+// of every Ipopt run (kernels/ipopt_solve.hpp); processes share nothing, so N
 // workers run N solves at once. Each worker is forked from the coordinating
 // process, which holds every input already, and receives only job numbers; a
 // job's result travels back as a string (the caller's serialisation). A worker
@@ -38,6 +38,10 @@ struct ProcessPoolOptions {
   double kill_after_s = 0.0;   // a job's deadline (s); 0: none
   // Called by the coordinating process when a job has ended: its number and outcome.
   std::function<void(std::size_t, const JobOutcome&)> on_job_end;
+  // Called by the coordinating process while it waits, at least every
+  // tick_interval_s, so that a status line can show the time between job ends.
+  std::function<void()> on_tick;
+  double tick_interval_s = 0.25;  // s
 };
 
 struct ProcessPoolRun {

@@ -2,9 +2,9 @@
 //
 // The static check of a fabricated character: with the designed rest lengths
 // and materials fixed, find the equilibrium by minimising the elastic energy
-// (solvers/simulator.hpp, relax), report the largest node displacement from
+// (simulation/simulator.hpp, relax), report the largest node displacement from
 // the designed shape, and write the relaxed positions and forces as a
-// solution file (CONTRACT.md) with the design's rest lengths.
+// solution file (docs/FORMATS.md) with the design's rest lengths.
 #include <cmath>
 #include <cstdio>
 #include <memory>

@@ -44,7 +44,7 @@ struct RenderData {
 void render_structure(const Structure& scene, const Eigen::Matrix3Xd& positions, const RenderData& data,
                       const RenderOptions& options, const std::string& path);
 
-// Former entry point: forces only.
+// render_structure with element forces only (no strains, no reference shape).
 inline void render_scene(const Structure& scene, const Eigen::Matrix3Xd& positions,
                          const std::optional<Eigen::VectorXd>& forces, const RenderOptions& options,
                          const std::string& path) {

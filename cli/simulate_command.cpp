@@ -2,7 +2,7 @@
 //   [--drag-script FILE] [--drag-stiffness K] [--damping A] [--stiffness-damping B]
 //   --out FRAMES.jsonl [--every K] [--no-vtk] [--render FILMSTRIP.png]
 //
-// Implicit Euler on the built design (solvers/simulator.hpp). Writes one JSON
+// Implicit Euler on the built design (simulation/simulator.hpp). Writes one JSON
 // line per output frame, a legacy-VTK file per frame beside FRAMES
 // (FRAMES-stem.NNNNNN.vtk) with a ParaView FRAMES-stem.vtk.series, and with
 // --render a PNG filmstrip of six frames. On standard error: a status line

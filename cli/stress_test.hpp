@@ -41,7 +41,7 @@ struct StressTestOptions {
   // verify is written there as <scene>_<family>_<level>_t<trial>_<solver>.scene.json
   // (to reproduce it with `tensegrity solve`).
   std::string failures_dir;
-  // Called from the coordinating thread: trials done, total, failures so far.
+  // Called by the coordinating process: trials done, total, failures so far.
   std::function<void(int, int, int)> progress;
 };
 
@@ -71,13 +71,17 @@ struct StressReport {
   double cpu_seconds = 0.0;         // of every process, during the solves
   double sum_job_wall_seconds = 0.0;
   double serial_wall_seconds = 0.0;  // of the solves on one worker, when measured (else 0)
+  std::vector<scenes::SkippedFile> skipped;  // bad files of the data folder, left out
 };
 
-// Throws InputError for unknown scene, family or solver names.
+// Throws InputError for unknown scene, family or solver names and for a bad
+// --scene file. A bad file of the data folder is named on standard error in
+// one line (`tensegrity: FILE: ITEM: REASON`), left out and listed in
+// StressReport::skipped.
 StressReport run_stress_test(const StressTestOptions& options);
 
 // The report file; with options.with_times false it holds no timing and is
-// bit-identical for the same options whatever the thread count.
+// bit-identical for the same options whatever the number of worker processes.
 nlohmann::json stress_report_to_json(const StressReport& report);
 
 // Per backend: trials, the count of each status, rejected inputs, crashed

@@ -42,21 +42,35 @@ void add_reference_scenes(std::vector<BaseScene>& out) {
   add(make_expandable_octahedron(o), "octahedron-gravity");
 }
 
+// Runs `load` (which reads `file`); a bad file throws, or with `skipped`
+// given is recorded there and left out.
+template <typename Load>
+void load_or_skip(const fs::path& file, std::vector<SkippedFile>* skipped, Load&& load) {
+  if (skipped == nullptr) return load();
+  try {
+    load();
+  } catch (const InputError& e) {
+    skipped->push_back({file.string(), e.what()});
+  }
+}
+
 // The stored equilibria of the 80-strut / 500-cable tower (bench/large_scenes.hpp),
 // when the data folder has them.
-void add_towers(std::vector<BaseScene>& out, const std::string& data_dir) {
+void add_towers(std::vector<BaseScene>& out, const std::string& data_dir, std::vector<SkippedFile>* skipped) {
   for (bool gravity : {false, true}) {
     const fs::path file =
         fs::path(data_dir) / "bench" / (std::string("tower-80s-500c") + (gravity ? "-gravity" : "") + ".scene.json");
     std::error_code ec;
     if (data_dir.empty() || !fs::is_regular_file(file, ec)) continue;
-    Structure s = tower_equilibrium(data_dir, gravity);
-    s.name = std::string("tower-80s-500c") + (gravity ? "-gravity" : "");
-    out.push_back({s.name, "tower", std::move(s)});
+    load_or_skip(file, skipped, [&] {
+      Structure s = tower_equilibrium(data_dir, gravity);
+      s.name = std::string("tower-80s-500c") + (gravity ? "-gravity" : "");
+      out.push_back({s.name, "tower", std::move(s)});
+    });
   }
 }
 
-void add_characters(std::vector<BaseScene>& out, const std::string& data_dir) {
+void add_characters(std::vector<BaseScene>& out, const std::string& data_dir, std::vector<SkippedFile>* skipped) {
   const fs::path dir = fs::path(data_dir) / "characters";
   std::error_code ec;
   if (data_dir.empty() || !fs::is_directory(dir, ec)) return;
@@ -65,11 +79,13 @@ void add_characters(std::vector<BaseScene>& out, const std::string& data_dir) {
     if (entry.path().string().ends_with(".character.json")) files.push_back(entry.path());
   std::sort(files.begin(), files.end());
   for (const fs::path& file : files) {
-    BuiltCharacter c = build_character_file(file.string());
-    std::string name = file.filename().string();
-    name.erase(name.size() - std::string(".character.json").size());
-    c.structure.name = name;
-    out.push_back({name, "character", std::move(c.structure)});
+    load_or_skip(file, skipped, [&] {
+      BuiltCharacter c = build_character_file(file.string());
+      std::string name = file.filename().string();
+      name.erase(name.size() - std::string(".character.json").size());
+      c.structure.name = name;
+      out.push_back({name, "character", std::move(c.structure)});
+    });
   }
 }
 
@@ -102,11 +118,11 @@ void add_noise(Structure& s, double radius, std::mt19937_64& rng) {
 
 }  // namespace
 
-std::vector<BaseScene> base_scenes(const std::string& data_dir) {
+std::vector<BaseScene> base_scenes(const std::string& data_dir, std::vector<SkippedFile>* skipped) {
   std::vector<BaseScene> out;
   add_reference_scenes(out);
-  add_towers(out, data_dir);
-  add_characters(out, data_dir);
+  add_towers(out, data_dir, skipped);
+  add_characters(out, data_dir, skipped);
   return out;
 }
 

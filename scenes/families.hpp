@@ -42,11 +42,18 @@ struct BaseScene {
   Structure scene;
 };
 
+// A data file left out of base_scenes, and the InputError's one line saying why.
+struct SkippedFile {
+  std::string file;
+  std::string reason;
+};
+
 // Every benchmark scene (the reference prisms and octahedra, plain and with
 // gravity; the 80-strut tower's stored equilibria `data_dir`/bench/tower-80s-500c*.scene.json,
 // plain and with gravity) and every character of `data_dir`/characters.
-// InputError when a character file is bad.
-std::vector<BaseScene> base_scenes(const std::string& data_dir);
+// A bad tower or character file throws InputError, or, when `skipped` is
+// given, is recorded there and left out.
+std::vector<BaseScene> base_scenes(const std::string& data_dir, std::vector<SkippedFile>* skipped = nullptr);
 
 std::vector<std::string> family_names();
 

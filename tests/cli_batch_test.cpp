@@ -1,6 +1,6 @@
 // `tensegrity batch` and `stress-test` in worker processes: the files and
 // numbers equal single in-process solves, an unreadable scene file is skipped
-// with one line and exit status 2, a worker that dies or overruns becomes a
+// with one line and exit status 1, a worker that dies or overruns becomes a
 // status of its job (never the end of the run) and is reaped, Ctrl-C stops
 // every worker, and the per-backend table of stress-test counts what the JSON
 // report holds.

@@ -1,18 +1,20 @@
 #!/usr/bin/python3
-"""Progress of `tensegrity solve` and `simulate` on standard error (docs/USER-GUIDE.md).
+"""Progress of `tensegrity solve`, `simulate` and `batch` on standard error (docs/USER-GUIDE.md).
 
 On a terminal (a pseudo-terminal here) a solve shows one status line,
 rewritten in place with a carriage return: iteration, relative residual and
 seconds, ending with the last iteration record and a newline before the
 summary. With --quiet, or when standard error is not a terminal, no status
 line appears. TENSEGRITY_PROGRESS_AFTER=0 drops the two-second delay, so the
-test does not depend on how long the solve takes on this machine.
+test does not depend on how long the solve takes on this machine; the batch
+check with the default delay uses a job that runs until its time limit.
 
     /usr/bin/python3 tests/cli_progress_test.py --binary build/tensegrity --source .
 
 Exit status 0 when every check passes, 1 otherwise (each failure is printed).
 """
 import argparse
+import copy
 import csv
 import json
 import os
@@ -29,6 +31,8 @@ import time
 PROGRESS = re.compile(r"solve: (?:part (\d+)/(\d+), )?iteration (\d+), relative residual ([-+0-9.e]+), ([0-9.]+) s")
 SIMULATE_STATUS = re.compile(r"simulate: step (\d+)/(\d+), t = ([0-9.]+) s, ([0-9.]+) s elapsed")
 SIMULATE_TENTH = re.compile(r"simulate: step (\d+)/(\d+) \((\d+) %\), t = ([0-9.]+) s")
+BATCH_STATUS = re.compile(r"batch: (\d+)/(\d+) solves done, (\d+) failed, ([0-9.]+) s")
+BATCH_TENTH = re.compile(r"batch: (\d+)/(\d+) solves done \((\d+) %\), (\d+) failed, ([0-9.]+) s")
 TIME_LIMIT = 300  # s, against a hang
 
 failures = []
@@ -197,6 +201,72 @@ def check_simulate(binary, source, work):
     check(status == 0 and err == "", "simulate --quiet prints nothing", repr(err))
 
 
+def not_converged(report):
+    return sum(1 for job in json.loads(report.read_text())["jobs"] if job["status"] != "converged")
+
+
+def check_batch(binary, source, work):
+    folder = work / "batch-scenes"
+    folder.mkdir()
+    scene = json.loads((source / "data/reference/prism-8.scene.json").read_text())
+    for seed in (1, 2, 3):
+        rng = random.Random(seed)
+        perturbed = copy.deepcopy(scene)
+        for node in perturbed["nodes"]:
+            node["x"] = [x + rng.uniform(-0.05, 0.05) for x in node["x"]]
+        (folder / f"prism-{seed}.scene.json").write_text(json.dumps(perturbed))
+    report = work / "batch-report.json"
+    fast = [binary, "batch", str(folder), "--solver", "alternating-gn", "--jobs", "2", "--out-dir",
+            str(work / "batch-out"), "--json", str(report)]
+
+    # Not a terminal: the line naming the run, then a line at every tenth of the jobs (1, 2, 3 of 3).
+    status, err = run_on_pipe(fast, 0)
+    check(status == 0, f"batch without a terminal exits 0, got {status}", err)
+    tenths = BATCH_TENTH.findall(err)
+    check([(t[0], t[1], t[2]) for t in tenths] == [("1", "3", "33"), ("2", "3", "66"), ("3", "3", "100")],
+          "batch without a terminal reports 1/3 (33 %), 2/3 (66 %), 3/3 (100 %)", err)
+    check(all(t[3] == "0" for t in tenths) and not_converged(report) == 0, "batch without a terminal: 0 failed", err)
+    check(not BATCH_STATUS.search(err) and "\r" not in err and err.count("\n") == 4,
+          "batch without a terminal: the run's line and three tenth lines, no status line", err)
+    status, err = run_on_pipe(fast + ["--quiet"], 0)
+    check(status == 0 and err == "", "batch --quiet without a terminal prints nothing", err)
+
+    # A terminal, no delay: the status line, last at 3 of 3.
+    status, err = run_on_terminal(fast, 0)
+    check(status == 0, f"batch on a terminal exits 0, got {status}", err)
+    shown = BATCH_STATUS.findall(err)
+    check(len(shown) >= 1 and shown[-1][:3] == ("3", "3", "0"), "batch's status line ends at 3/3, 0 failed",
+          repr(err))
+    check("\r" in err and not BATCH_TENTH.search(err), "batch on a terminal: rewritten in place, no tenth lines",
+          repr(err))
+
+    # The default delay of 2 s: a run longer than that shows the line. The
+    # faithful scheme cannot finish the unsolved 80-strut tower in 3 s, so
+    # that job ends time_limit and the run lasts more than 3 s.
+    tower = folder / "tower.scene.json"
+    subprocess.run([binary, "generate", "tower", "--out", str(tower)], check=True, timeout=TIME_LIMIT,
+                   stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL)
+    slow = [binary, "batch", str(folder), "--solver", "alternating", "--time-limit", "3", "--jobs", "2",
+            "--out-dir", str(work / "batch-slow"), "--json", str(report)]
+    status, err = run_on_terminal(slow, None)
+    check(status == 1, f"batch with a job at its time limit exits 1, got {status}", err)
+    wall = json.loads(report.read_text())["totals"]["wall_seconds"]
+    check(wall > 2.5, f"the slow batch runs longer than the 2 s delay (took {wall} s)")
+    failed = not_converged(report)
+    check(failed >= 1, f"the tower job does not converge in 3 s ({failed} failed)")
+    shown = BATCH_STATUS.findall(err)
+    check(len(shown) >= 1 and shown[-1][:3] == ("4", "4", str(failed)),
+          f"batch's status line after 2 s ends at 4/4, {failed} failed", repr(err))
+    check(all(float(s[3]) >= 2.0 for s in shown), "no status line before 2 s", repr(err))
+    done = [int(s[0]) for s in shown]
+    check(done == sorted(done), f"solves done never go back: {done}")
+    # At most 4 updates per second, plus the final one.
+    check(len(shown) <= 2 + 4 * wall, f"{len(shown)} updates in {wall} s is more than 4 per second")
+    # --quiet: nothing on the terminal (the table goes to standard output).
+    status, err = run_on_terminal(slow + ["--quiet"], None)
+    check(status == 1 and err == "", "batch --quiet prints nothing on a terminal", repr(err))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--binary", required=True)
@@ -210,6 +280,7 @@ def main():
             check_solve(a.binary, scene, work, solver)
         check_verbose(a.binary, scene, work)
         check_simulate(a.binary, source, work)
+        check_batch(a.binary, source, work)
     print(f"cli_progress: {len(failures)} failures")
     return 1 if failures else 0
 

@@ -1,12 +1,14 @@
 // `tensegrity stress-test` and determinism: the same options give a
 // bit-identical report run to run and on one or two threads; `solve` gives
-// bit-identical positions and forces run to run with every backend.
+// bit-identical positions and forces run to run with every backend; a bad
+// file of the data folder is skipped with one line and exit status 1.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -147,6 +149,47 @@ TEST_F(StressTestCommand, BackendOptionsReachEverySolver) {
   EXPECT_EQ(converged(plain), 1);
   ASSERT_EQ(stress({"--option", "gamma=1e-12", "--option", "i_max=1"}), 0) << read_text(dir_ / "err");
   EXPECT_EQ(converged(json::parse(read_text(out))), 0);
+}
+
+// A bad file in the data folder is named in one line and left out, as `batch`
+// does with a bad scene; the good character is stressed all the same, and the
+// exit status is 1 (the run has output, so not 2).
+TEST_F(StressTestCommand, BadDataFileIsSkippedWithOneLine) {
+  const fs::path source = TENSEGRITY_SOURCE_DIR;
+  const fs::path data = dir_ / "data";
+  fs::create_directories(data / "characters");
+  json duck = json::parse(read_text(source / "data" / "characters" / "minimal" / "duck.character.json"));
+  duck["block_library"] = (source / "data" / "blocks").string();
+  std::ofstream(data / "characters" / "duck.character.json") << duck.dump();
+  const fs::path broken = data / "characters" / "broken.character.json";
+  std::ofstream(broken) << "{\"format\": \"tensegrity-character\", \"version\": 1, \"blocks\": [";
+
+  const fs::path out = dir_ / "r.json";
+  const int status = run({"stress-test", "--scenes", "character", "--families", "noise", "--trials", "1", "--solvers",
+                          "alternating-gn", "--jobs", "2", "--no-times", "--quiet", "--data", data.string(), "--out",
+                          out.string()},
+                         dir_ / "err");
+  const std::string err = read_text(dir_ / "err");
+  EXPECT_EQ(status, 1) << err;
+  std::vector<std::string> complaints;
+  std::istringstream lines(err);
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind("tensegrity: ", 0) == 0) complaints.push_back(line);
+  ASSERT_EQ(complaints.size(), 1u) << err;
+  EXPECT_EQ(complaints[0].find("tensegrity: " + broken.string() + ": "), 0u) << err;
+  // The exit status comes from the skipped file alone: every result is sound.
+  EXPECT_NE(err.find("stress-test: 6 solves; 0 with"), std::string::npos) << err;
+
+  const json j = json::parse(read_text(out));
+  EXPECT_EQ(j["scenes"], json::array({"duck"}));
+  // Six noise levels, one trial, one backend.
+  EXPECT_EQ(j["totals"]["solves"].get<int>() + j["totals"]["rejected_inputs"].get<int>(), 6);
+  EXPECT_EQ(j["trials"].size(), j["totals"]["solves"].get<std::size_t>());
+  EXPECT_EQ(j["solvers"]["alternating-gn"]["overall"]["trials"], j["totals"]["solves"]);
+  ASSERT_EQ(j["skipped"].size(), 1u);
+  EXPECT_EQ(j["skipped"][0]["file"], broken.string());
+  EXPECT_EQ("tensegrity: " + j["skipped"][0]["reason"].get<std::string>(), complaints[0]);
+  EXPECT_EQ(j["totals"]["skipped_files"], 1);
 }
 
 }  // namespace
