@@ -11,6 +11,7 @@
 // Run with
 //   build/bench/eq5_newton_bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 //   build/bench/eq5_newton_bench --tower_layers=10,20,40,80,160 --benchmark_filter='eq5-newton|alternating-gn/'
+// (--eq5_options=key=value,... sets eq5-newton's options).
 // Every run prints one line to stderr.
 #include <benchmark/benchmark.h>
 
@@ -34,6 +35,12 @@ namespace {
 constexpr double kTimeLimit = 120.0;
 constexpr double kFamilyNoise = 0.01;
 constexpr double kStoredTowerNoise = 0.02;
+
+// `--eq5_options=key=value,...`: options of the eq5-newton runs.
+OptionPairs& eq5_options() {
+  static OptionPairs pairs;
+  return pairs;
+}
 
 std::vector<int>& tower_layers() {
   static std::vector<int> layers{10, 20, 40};
@@ -82,6 +89,7 @@ void solve_with(benchmark::State& state, const std::shared_ptr<Structure>& scene
   SolveOptions options;
   options.time_limit_s = kTimeLimit;
   options.backend_options = backend.options;
+  if (backend.solver == "eq5-newton") options.backend_options = eq5_options();
   SolveResult r;
   for (auto _ : state) r = solver->Solve(*scene, options, DriverControls{false});
   const Verification v = verify(*scene, r.positions, r.forces, options.tolerance);
@@ -131,10 +139,18 @@ int main(int argc, char** argv) {
   std::vector<char*> rest;
   for (int i = 0; i < argc; ++i) {
     constexpr const char* kFlag = "--tower_layers=";
-    if (std::strncmp(argv[i], kFlag, std::strlen(kFlag)) == 0)
+    constexpr const char* kOptions = "--eq5_options=";
+    if (std::strncmp(argv[i], kFlag, std::strlen(kFlag)) == 0) {
       tensegrity::tower_layers() = tensegrity::parse_int_list(argv[i] + std::strlen(kFlag));
-    else
+    } else if (std::strncmp(argv[i], kOptions, std::strlen(kOptions)) == 0) {
+      std::stringstream ss(argv[i] + std::strlen(kOptions));
+      std::string pair;
+      while (std::getline(ss, pair, ','))
+        if (const auto eq = pair.find('='); eq != std::string::npos)
+          tensegrity::eq5_options()[pair.substr(0, eq)] = pair.substr(eq + 1);
+    } else {
       rest.push_back(argv[i]);
+    }
   }
   int rest_argc = static_cast<int>(rest.size());
   benchmark::Initialize(&rest_argc, rest.data());

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 namespace tensegrity {
@@ -23,11 +24,19 @@ constexpr double kBarrierExponent = 1.5;
 constexpr double kSmallestFractionToBoundary = 0.99;
 // Bound multipliers are kept within [mu / (k d), k mu / d] (Ipopt's kappa_Sigma).
 constexpr double kMultiplierSafeguard = 1e10;
-// Armijo constant of the merit line search and the largest number of halvings.
+// Filter line search (Waechter and Biegler 2006, Ipopt's constants): the
+// Armijo constant, the margins a trial must gain on the filter's entries, the
+// exponents of the switching rule, and theta_max / theta_min relative to the
+// start's infeasibility; the largest number of halvings and the smallest step.
 constexpr double kArmijo = 1e-4;
+constexpr double kFilterInfeasibilityMargin = 1e-5;
+constexpr double kFilterObjectiveMargin = 1e-8;
+constexpr double kSwitchingObjectiveExponent = 2.3;
+constexpr double kSwitchingInfeasibilityExponent = 1.1;
+constexpr double kLargestInfeasibility = 1e4;
+constexpr double kSmallInfeasibility = 1e-4;
 constexpr int kMaxBacktracks = 40;
-// The merit's penalty exceeds the largest multiplier by this factor.
-constexpr double kPenaltyMargin = 1.1;
+constexpr double kSmallestStep = 1e-14;
 // delta_c on the multipliers' diagonal (quasi-definite matrix).
 constexpr double kDualRegularisation = 1e-10;
 // Inertia correction (Ipopt's rule): the first delta_w, its growth on the first
@@ -122,7 +131,6 @@ struct MeritPoint {
   double infeasibility = 0.0;       // |c|_1
   Eigen::VectorXd c, d;
   bool inside = false;              // every slack positive
-  double merit(double mu, double penalty) const { return objective + mu * barrier + penalty * infeasibility; }
 };
 
 void evaluate(ScaledEq5& problem, const Eigen::VectorXd& y, MeritPoint& p) {
@@ -161,11 +169,15 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   evaluate(problem, y, here);
   Eigen::VectorXd lambda = Eigen::VectorXd::Zero(mc);
   Eigen::VectorXd v = mu * here.d.cwiseInverse();
-  Eigen::VectorXd g, rd, rhs(n + mc), solution, dy, dv, lambda_plus, sigma_diag, rhs_soc(n + mc), soc, y_trial;
+  Eigen::VectorXd g, rd, rhs(n + mc), solution, dy, dv, lambda_plus, sigma_diag, rhs_soc(n + mc), soc, y_trial, y_soc;
   problem.gradient(y, g);
   const Eigen::SparseMatrix<double>* J = &problem.jacobian(y);
   KktSystem kkt(problem.hessian(y, lambda), *J, nq);
-  double penalty = 0.0, last_shift = 0.0;
+  double last_shift = 0.0;
+  const double theta_max = kLargestInfeasibility * std::max(1.0, here.infeasibility);
+  const double theta_min = kSmallInfeasibility * std::max(1.0, here.infeasibility);
+  std::vector<std::pair<double, double>> filter;  // (theta, phi_mu) pairs a trial must not be dominated by
+  double filter_mu = mu;
   out.y = y;
   out.lambda = lambda;
 
@@ -246,16 +258,29 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       if (dv[e] < 0.0) alpha_v = std::min(alpha_v, -tau * v[e] / dv[e]);
     }
 
-    // Line search on the l1 merit function.
-    penalty = std::max(penalty, kPenaltyMargin * lambda_plus.cwiseAbs().maxCoeff());
-    const double merit0 = here.merit(mu, penalty);
-    const double slope = g.dot(dy) - mu * S.cwiseQuotient(here.d).dot(dy.tail(m)) - penalty * here.infeasibility;
+    // Filter line search on (theta, phi_mu) = (|c|_1, phi - mu sum log d).
+    const double theta = here.infeasibility, phi = here.objective + mu * here.barrier;
+    const double slope = g.dot(dy) - mu * S.cwiseQuotient(here.d).dot(dy.tail(m));
+    if (mu != filter_mu) filter.clear(), filter_mu = mu;
+    bool objective_step = false;
+    auto acceptable = [&](const MeritPoint& t, double a) {
+      if (!t.inside) return false;
+      const double theta_t = t.infeasibility, phi_t = t.objective + mu * t.barrier;
+      if (!std::isfinite(phi_t) || theta_t > theta_max) return false;
+      for (const auto& [theta_f, phi_f] : filter)
+        if (theta_t >= theta_f && phi_t >= phi_f) return false;
+      objective_step = theta <= theta_min && slope < 0.0 &&
+                       a * std::pow(-slope, kSwitchingObjectiveExponent) >
+                           std::pow(theta, kSwitchingInfeasibilityExponent);
+      if (objective_step) return phi_t <= phi + kArmijo * a * slope;
+      return theta_t <= (1.0 - kFilterInfeasibilityMargin) * theta || phi_t <= phi - kFilterObjectiveMargin * theta;
+    };
     double alpha = alpha_max;
     bool accepted = false;
-    for (int backtrack = 0; backtrack < kMaxBacktracks && !accepted; ++backtrack, alpha *= 0.5) {
+    for (int backtrack = 0; backtrack < kMaxBacktracks && alpha >= kSmallestStep; ++backtrack, alpha *= 0.5) {
       y_trial = y + alpha * dy;
       evaluate(problem, y_trial, trial);
-      if (trial.inside && trial.merit(mu, penalty) <= merit0 + kArmijo * alpha * std::min(slope, 0.0)) {
+      if (acceptable(trial, alpha)) {
         accepted = true;
         break;
       }
@@ -264,11 +289,11 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
         rhs_soc.setZero();
         rhs_soc.tail(mc) = -trial.c;
         kkt.solve(rhs_soc, soc);
-        Eigen::VectorXd y_soc = y_trial + soc.head(n);
+        y_soc = y_trial + soc.head(n);
         evaluate(problem, y_soc, corrected);
-        bool keeps_fraction = corrected.inside && (corrected.d.array() >= (1.0 - tau) * here.d.array()).all();
-        if (keeps_fraction &&
-            corrected.merit(mu, penalty) <= merit0 + kArmijo * alpha * std::min(slope, 0.0)) {
+        const bool keeps_fraction =
+            corrected.inside && (corrected.d.array() >= (1.0 - tau) * here.d.array()).all();
+        if (keeps_fraction && acceptable(corrected, alpha)) {
           y_trial = y_soc;
           std::swap(trial, corrected);
           ++out.second_order_corrections;
@@ -279,9 +304,11 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     }
     if (!accepted) {
       out.status = Status::Stalled;
-      out.message = "the merit line search found no acceptable step";
+      out.message = "the filter line search found no acceptable step";
       return out;
     }
+    if (!objective_step)
+      filter.emplace_back((1.0 - kFilterInfeasibilityMargin) * theta, phi - kFilterObjectiveMargin * theta);
 
     y = y_trial;
     std::swap(here, trial);

@@ -20,12 +20,14 @@
 // matrix quasi-definite so that a sparse LDL^T without pivoting (Eigen's
 // SimplicialLDLT, AMD ordering analysed once) is stable; iterative refinement
 // removes it from the solution. The signs of D give the inertia: when it is
-// not (n, mc), delta_w grows (as in Ipopt) until it is, so every step is a
-// descent direction of the merit function on the constraints' tangent space.
+// not (n, mc), delta_w grows (as in Ipopt) until it is, so that the step
+// minimises a model that is convex on the constraints' tangent space.
 //
 // Steps stay strictly inside the bounds (fraction to the boundary), are
-// accepted on the l1 merit phi - mu sum log d + nu |c|_1 (Armijo, one
-// second-order correction against the Maratos effect, then halving), and mu
+// accepted by a filter line search on (|c|_1, phi - mu sum log d) (Waechter
+// and Biegler 2006: Armijo on the barrier objective when the step is an
+// objective step, one second-order correction against the Maratos effect,
+// then halving; no restoration phase: a failed search ends `stalled`), and mu
 // falls superlinearly (mu <- max(mu_min, min(0.2 mu, mu^1.5))) whenever the
 // barrier problem is solved to 10 mu. Stop: dual infeasibility and
 // complementarity below optimality_tolerance and |c|_inf below
