@@ -133,21 +133,25 @@ constexpr double kSameChange = 1e-6;
 
 TEST(Eq5Newton, ReachesTheReferenceOptimaWithoutGravity) {
   const auto solver = make_solver("eq5-newton");
-  for (const Reference& ref : references()) {
-    if (ref.gravity) continue;
-    SCOPED_TRACE(ref.name);
-    const Structure scene = read_scene_file(kReferenceDir + "scenes/" + ref.file);
-    const SolveResult r = solver->Solve(scene, SolveOptions{});
-    ASSERT_EQ(r.status, Status::Converged) << r.message;
-    for (const auto& d : r.details) {
-      ASSERT_NE(d, nullptr);
-      EXPECT_EQ(dynamic_cast<const Eq5NewtonDetails&>(*d).polish, "kept") << r.message;
+  for (const std::string barrier : {"mehrotra", "monotone"}) {
+    for (const Reference& ref : references()) {
+      if (ref.gravity) continue;
+      SCOPED_TRACE(ref.name + " barrier=" + barrier);
+      const Structure scene = read_scene_file(kReferenceDir + "scenes/" + ref.file);
+      SolveOptions options;
+      options.backend_options = {{"barrier", barrier}};
+      const SolveResult r = solver->Solve(scene, options);
+      ASSERT_EQ(r.status, Status::Converged) << r.message;
+      for (const auto& d : r.details) {
+        ASSERT_NE(d, nullptr);
+        EXPECT_EQ(dynamic_cast<const Eq5NewtonDetails&>(*d).polish, "kept") << r.message;
+      }
+      const Verification v = verify(scene, r.positions, r.forces, 1e-8);
+      EXPECT_TRUE(v.ok);
+      std::printf("%-9s %-28s change %.12g reference %.12g ratio %.10f\n", barrier.c_str(), ref.name.c_str(),
+                  v.geometry_change, ref.geometry_change, v.geometry_change / ref.geometry_change);
+      EXPECT_NEAR(v.geometry_change / ref.geometry_change, 1.0, kSameChange);
     }
-    const Verification v = verify(scene, r.positions, r.forces, 1e-8);
-    EXPECT_TRUE(v.ok);
-    std::printf("%-28s change %.12g reference %.12g ratio %.10f\n", ref.name.c_str(), v.geometry_change,
-                ref.geometry_change, v.geometry_change / ref.geometry_change);
-    EXPECT_NEAR(v.geometry_change / ref.geometry_change, 1.0, kSameChange);
   }
 }
 
@@ -212,6 +216,9 @@ TEST(Eq5Newton, OptionsAreTypedAndRangeChecked) {
   EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"optimality_tolerance", "0"}}), OptionError);
   EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"proximal_weight", "-1"}}), OptionError);
   EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"mu", "1"}}), OptionError);
+  EXPECT_TRUE(Eq5NewtonOptions{}.predictor_corrector);
+  EXPECT_FALSE(Eq5NewtonOptions::FromPairs({{"barrier", "monotone"}}).predictor_corrector);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"barrier", "adaptive"}}), OptionError);
   EXPECT_TRUE(Eq5NewtonOptions{}.IsValid());
   Eq5NewtonOptions bad;
   bad.initial_barrier = 0.0;

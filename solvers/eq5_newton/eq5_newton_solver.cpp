@@ -60,6 +60,7 @@ Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
   o.optimality_tolerance =
       reader.number("optimality_tolerance", o.optimality_tolerance, ValueRange::open(0.0, 1.0));
   o.proximal_weight = reader.number("proximal_weight", o.proximal_weight, ValueRange::open(0.0, 1.0));
+  o.predictor_corrector = reader.choice("barrier", "mehrotra", {"mehrotra", "monotone"}) == "mehrotra";
   reader.reject_unknown();
   return o;
 }
@@ -136,6 +137,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   settings.constraint_tolerance = 0.1 * options.tolerance * load_over_force / std::sqrt(3.0);
   settings.initial_barrier = newton.initial_barrier;
   settings.proximal_weight = newton.proximal_weight;
+  settings.predictor_corrector = newton.predictor_corrector;
   settings.time_limit_s = std::max(0.0, options.time_limit_s - recorder.seconds());
 
   auto positions_and_forces = [&](const Eigen::VectorXd& y, Eigen::Matrix3Xd& x, Eigen::VectorXd& sigma) {

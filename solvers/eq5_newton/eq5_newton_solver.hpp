@@ -17,7 +17,8 @@
 // Options (`--option key=value`): newton_iterations (1 .. 100000, default
 // 200), initial_barrier (mu at the start, (0, 1), default 1e-6),
 // optimality_tolerance (dual infeasibility and complementarity, (0, 1),
-// default 1e-10), proximal_weight (rho on the forces, (0, 1), default 1e-8).
+// default 1e-10), proximal_weight (rho on the forces, (0, 1), default 1e-8),
+// barrier (mehrotra | monotone: the barrier parameter's rule, default mehrotra).
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -32,6 +33,7 @@ struct Eq5NewtonOptions {
   double initial_barrier = 1e-6;
   double optimality_tolerance = 1e-10;
   double proximal_weight = 1e-8;
+  bool predictor_corrector = true;
 
   static Eq5NewtonOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;

@@ -169,7 +169,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   evaluate(problem, y, here);
   Eigen::VectorXd lambda = Eigen::VectorXd::Zero(mc);
   Eigen::VectorXd v = mu * here.d.cwiseInverse();
-  Eigen::VectorXd g, rd, rhs(n + mc), solution, dy, dv, lambda_plus, sigma_diag, rhs_soc(n + mc), soc, y_trial, y_soc;
+  Eigen::VectorXd g, rd, rhs(n + mc), solution, dy, dv, lambda_plus, sigma_diag, rhs_soc(n + mc), soc, y_trial, y_soc, corrector;
   problem.gradient(y, g);
   const Eigen::SparseMatrix<double>* J = &problem.jacobian(y);
   KktSystem kkt(problem.hessian(y, lambda), *J, nq);
@@ -202,8 +202,10 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       const double comp = (here.d.cwiseProduct(v).array() - mu).abs().maxCoeff();
       return std::max({out.dual_infeasibility, out.constraint_violation, comp});
     };
-    while (mu > mu_min && barrier_error() <= kBarrierTolerance * mu)
-      mu = std::max(mu_min, std::min(kBarrierDecrease * mu, std::pow(mu, kBarrierExponent)));
+    if (!settings.predictor_corrector) {
+      while (mu > mu_min && barrier_error() <= kBarrierTolerance * mu)
+        mu = std::max(mu_min, std::min(kBarrierDecrease * mu, std::pow(mu, kBarrierExponent)));
+    }
     if (iteration >= settings.max_iterations) {
       out.status = Status::MaxIterations;
       out.message = "Newton iteration budget spent";
@@ -236,8 +238,27 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       }
       last_shift = shift;
     }
+    // Mehrotra's predictor: the affine step (mu = 0) sets mu from the
+    // complementarity it would reach, and its second-order term corrects.
+    corrector.setZero(m);
+    if (settings.predictor_corrector) {
+      rhs.head(n) = -g;
+      rhs.tail(mc) = -here.c;
+      kkt.solve(rhs, solution);
+      const Eigen::VectorXd ds = S.cwiseProduct(solution.segment(nq, m));
+      const Eigen::VectorXd dv_affine = -v - v.cwiseQuotient(here.d).cwiseProduct(ds);
+      double alpha_p = 1.0, alpha_d = 1.0;
+      for (int e = 0; e < m; ++e) {
+        if (ds[e] < 0.0) alpha_p = std::min(alpha_p, -here.d[e] / ds[e]);
+        if (dv_affine[e] < 0.0) alpha_d = std::min(alpha_d, -v[e] / dv_affine[e]);
+      }
+      const double mu_now = here.d.dot(v) / m;
+      const double mu_affine = (here.d + alpha_p * ds).dot(v + alpha_d * dv_affine) / m;
+      mu = std::clamp(mu_now * std::pow(mu_affine / mu_now, 3.0), mu_min, mu_now);
+      corrector = ds.cwiseProduct(dv_affine);
+    }
     rhs.head(n) = -g;
-    rhs.segment(nq, m) += mu * S.cwiseQuotient(here.d);
+    rhs.segment(nq, m) += S.cwiseProduct((mu - corrector.array()).matrix().cwiseQuotient(here.d));
     rhs.tail(mc) = -here.c;
     kkt.solve(rhs, solution);
     if (!solution.allFinite()) {
@@ -247,7 +268,8 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     }
     dy = solution.head(n);
     lambda_plus = solution.tail(mc);
-    dv = mu * here.d.cwiseInverse() - v - v.cwiseQuotient(here.d).cwiseProduct(S.cwiseProduct(dy.tail(m)));
+    dv = (mu - corrector.array()).matrix().cwiseQuotient(here.d) - v -
+         v.cwiseQuotient(here.d).cwiseProduct(S.cwiseProduct(dy.tail(m)));
 
     // Fraction to the boundary, for the forces and for their multipliers.
     const double tau = std::max(kSmallestFractionToBoundary, 1.0 - mu);

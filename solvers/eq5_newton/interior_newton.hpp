@@ -48,6 +48,9 @@ struct InteriorNewtonSettings {
   double constraint_tolerance = 1e-10;
   double initial_barrier = 1e-6;   // mu at the start
   double proximal_weight = 1e-8;   // rho on the forces
+  // mu from Mehrotra's predictor every iteration (with its second-order
+  // correction) instead of the monotone rule.
+  bool predictor_corrector = false;
   double time_limit_s = std::numeric_limits<double>::infinity();
 };
 
