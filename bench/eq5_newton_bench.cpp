@@ -94,16 +94,22 @@ void solve_with(benchmark::State& state, const std::shared_ptr<Structure>& scene
   for (auto _ : state) r = solver->Solve(*scene, options, DriverControls{false});
   const Verification v = verify(*scene, r.positions, r.forces, options.tolerance);
   int newton = 0;
-  if (backend.solver == "eq5-newton" && !r.details.empty() && r.details[0])
-    newton = dynamic_cast<const Eq5NewtonDetails&>(*r.details[0]).newton_iterations;
+  std::string polish;
+  if (backend.solver == "eq5-newton" && !r.details.empty() && r.details[0]) {
+    const auto& d = dynamic_cast<const Eq5NewtonDetails&>(*r.details[0]);
+    newton = d.newton_iterations;
+    polish = ", polish " + d.polish;
+    state.counters["polish_kept"] = d.polish == "kept" ? 1.0 : 0.0;
+  }
   state.counters["geometry_change"] = v.geometry_change;
   state.counters["converged"] = r.status == Status::Converged && v.ok ? 1.0 : 0.0;
   state.counters["iterations"] = r.stats.iterations;
   state.counters["newton_iterations"] = newton;
   state.counters["elements"] = scene->num_elements();
-  std::fprintf(stderr, "[%s] %s: %s in %.3f s, %d iterations (%d Newton), rr %.2e, change %.8g\n",
+  std::fprintf(stderr, "[%s] %s: %s in %.3f s, %d iterations (%d Newton%s), rr %.2e, change %.8g\n",
                backend.label.c_str(), scene->name.c_str(), std::string(to_string(r.status)).c_str(),
-               r.stats.seconds, r.stats.iterations, newton, v.relative_residual, v.geometry_change);
+               r.stats.seconds, r.stats.iterations, newton, polish.c_str(), v.relative_residual, v.geometry_change);
+  if (!polish.empty()) std::fprintf(stderr, "  %s\n", r.message.c_str());
 }
 
 void register_all() {
