@@ -8,7 +8,6 @@
 #include "formulations/force_scale.hpp"
 #include "formulations/minimal_geometry_change_nlp.hpp"
 #include "model/verify.hpp"
-#include "solvers/alternating/alternating_solver.hpp"
 #include "solvers/eq5_newton/interior_newton.hpp"
 #include "solvers/eq5_newton/scaled_eq5.hpp"
 #include "solvers/option_reader.hpp"
@@ -37,6 +36,15 @@ std::string polish_name(Status s) {
     case Status::Converged: return "kept";
     default: return "numerical_error";
   }
+}
+
+// alternating-gn from the part's geometry with its default options (the
+// driver has checked the part already, so without the shortcut).
+SolveResult equilibrium_start(const Structure& part, const SolveOptions& options) {
+  SolveOptions start_options = options;
+  start_options.backend_options.clear();
+  start_options.verbose = false;
+  return make_solver("alternating-gn")->Solve(part, start_options, DriverControls{false});
 }
 
 TracePoint trace_point(const Verification& v, int iteration, double objective) {
@@ -98,9 +106,13 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   TraceRecorder recorder(options.time_limit_s);
   auto details = std::make_shared<Eq5NewtonDetails>();
 
-  // 1. alternating-gn's equilibrium (its records reach the observer itself).
-  SolveResult start = solve_gauss_newton_part(part, options, part_problem.initial_forces,
-                                              GaussNewtonAlternatingOptions::FromPairs({}));
+  // 1. alternating-gn's equilibrium, through the registry (backends do not
+  // include each other). The nested driver reports to no observer, so its
+  // records are passed on here and start this solve's trace.
+  const IterationObserver* observer = current_iteration_observer();
+  SolveResult start = equilibrium_start(part, options);
+  if (observer != nullptr && *observer)
+    for (const TracePoint& p : start.trace) (*observer)(p);
   details->start_iterations = start.stats.iterations;
   const Verification start_check = verify(part, start.positions, start.forces, options.tolerance);
   details->start_geometry_change = start_check.geometry_change;
