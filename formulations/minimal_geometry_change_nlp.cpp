@@ -5,8 +5,9 @@
 
 namespace tensegrity {
 
-MinimalGeometryChangeNlp::MinimalGeometryChangeNlp(const Structure& s, const ForceScale& scale)
-    : structure_(s), scale_(scale), eq_(structure_) {
+MinimalGeometryChangeNlp::MinimalGeometryChangeNlp(const Structure& s, const ForceScale& scale,
+                                                   PrestressRow prestress)
+    : structure_(s), scale_(scale), prestress_(prestress), eq_(structure_) {
   eq_.set_positions(structure_.positions);
   nq_ = eq_.num_equations();
   m_ = eq_.num_elements();
@@ -87,10 +88,13 @@ void MinimalGeometryChangeNlp::constraint_bounds(Eigen::VectorXd& lower, Eigen::
   lower = Eigen::VectorXd::Zero(num_constraints());
   upper = lower;
   if (scale_.has_normalisation()) lower[nq_] = upper[nq_] = scale_.normalisation_target;
-  // Under gravity the mean cable force is held at kappa times the weight, an
-  // equality: an upper bound alone lets Eq. 5 trade prestress for geometry and
-  // end far from the scene (docs/THEORY-force-scale.md).
-  if (scale_.has_prestress_cap()) lower[nq_] = upper[nq_] = scale_.prestress_cap;
+  // Under gravity the mean cable force is held at kappa times the weight by
+  // default: from the scene, an upper bound alone lets Ipopt trade prestress
+  // for geometry and end far away (docs/THEORY-force-scale.md).
+  if (scale_.has_prestress_cap()) {
+    upper[nq_] = scale_.prestress_cap;
+    lower[nq_] = prestress_ == PrestressRow::Equal ? scale_.prestress_cap : -std::numeric_limits<double>::infinity();
+  }
 }
 
 Eigen::VectorXd MinimalGeometryChangeNlp::initial_point(const Eigen::VectorXd& sigma0) const {

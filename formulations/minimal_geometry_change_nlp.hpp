@@ -7,7 +7,8 @@
 //                the objective is dimensionless and scale-invariant)
 //   constraints  f(q, sigma) = A(q) sigma + f_g = 0   (3 n_free rows, N)
 //                c^T sigma = t        without gravity  (1 row when there are cables)
-//                c^T sigma <= kappa n_c W  under gravity (ForceScale: the prestress cap)
+//                c^T sigma  = kappa n_c W  under gravity (ForceScale: the prestress level),
+//                or <= with PrestressRow::Cap
 //   bounds       sigma within the ForceScale sign margins; q free.
 //
 // Exact sparse gradient, constraint Jacobian and Hessian of the Lagrangian.
@@ -29,9 +30,13 @@
 
 namespace tensegrity {
 
+// The cable-sum row under gravity: held at kappa n_c W, or only bounded above
+// by it (docs/THEORY-force-scale.md measures both).
+enum class PrestressRow { Equal, Cap };
+
 class MinimalGeometryChangeNlp {
  public:
-  MinimalGeometryChangeNlp(const Structure& s, const ForceScale& scale);
+  MinimalGeometryChangeNlp(const Structure& s, const ForceScale& scale, PrestressRow prestress = PrestressRow::Equal);
 
   int num_variables() const;
   int num_constraints() const;
@@ -39,7 +44,7 @@ class MinimalGeometryChangeNlp {
   int num_forces() const;      // m
 
   // Variable bounds (+-infinity where unbounded) and constraint bounds (equalities,
-  // except the cable-sum row under gravity: (-infinity, prestress_cap]).
+  // except the cable-sum row under gravity with PrestressRow::Cap: (-infinity, prestress_cap]).
   void variable_bounds(Eigen::VectorXd& lower, Eigen::VectorXd& upper) const;
   void constraint_bounds(Eigen::VectorXd& lower, Eigen::VectorXd& upper) const;
 
@@ -79,6 +84,7 @@ class MinimalGeometryChangeNlp {
 
   Structure structure_;
   ForceScale scale_;
+  PrestressRow prestress_ = PrestressRow::Equal;
   Equilibrium eq_;
   Eigen::VectorXd q0_;
   double length_scale_ = 1.0;

@@ -37,8 +37,8 @@ const std::vector<std::string_view>& scene_node_keys() {
 }
 
 const std::vector<std::string_view>& scene_element_keys() {
-  static const std::vector<std::string_view> keys = {"kind",  "nodes",         "mass", "name",     "block",
-                                                     "block_element", "link", "material", "target_strain"};
+  static const std::vector<std::string_view> keys = {"kind", "nodes", "mass",     "name",         "block",
+                                                     "block_element", "tie", "link", "material", "target_strain"};
   return keys;
 }
 

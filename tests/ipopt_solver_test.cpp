@@ -9,6 +9,8 @@
 #include "model/errors.hpp"
 #include "model/verify.hpp"
 #include "model/reference_scenes.hpp"
+#include "model/scene_io.hpp"
+#include "formulations/force_scale.hpp"
 #include "scenes/suites.hpp"
 
 namespace tensegrity {
@@ -202,6 +204,45 @@ TEST(IpoptSolver, StartOptionIsCheckedAndAWarmStartReachesTheSameOptimum) {
   EXPECT_NEAR(warm.stats.geometry_change, cold.stats.geometry_change, 1e-6 * cold.stats.geometry_change);
   EXPECT_GT(cold.stats.geometry_change, 0.0);
   std::printf("cold %d iterations, warm %d iterations\n", cold.stats.iterations, warm.stats.iterations);
+}
+
+// prestress=cap: the capped run restarts at the held optimum and is kept only
+// when verified and closer to the scene. On prism-7-gravity it moves to another,
+// closer local optimum; on prism-3-gravity the held optimum stays. At both the
+// cap is active: the mean cable force sits at kappa times the weight.
+TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
+  const IpoptSolver solver;
+  SolveOptions bad;
+  bad.backend_options = {{"prestress", "loose"}};
+  EXPECT_THROW(solver.ValidateOptions(bad), InputError);
+
+  SolveOptions capped_options;  // the default, named
+  capped_options.backend_options = {{"prestress", "cap"}};
+  SolveOptions held_options;
+  held_options.backend_options = {{"prestress", "equal"}};
+  const std::string reference = std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/";
+  for (const auto& [name, improves] : std::vector<std::pair<std::string, bool>>{{"prism-7-gravity", true},
+                                                                                 {"prism-3-gravity", false}}) {
+    const Structure s = read_scene_file(reference + name + ".scene.json");
+    const SolveResult held = solver.Solve(s, held_options, DriverControls{false});
+    const SolveResult capped = solver.Solve(s, capped_options, DriverControls{false});
+    const SolveResult by_default = solver.Solve(s, no_shortcut(), DriverControls{false});
+    EXPECT_EQ(by_default.stats.geometry_change, capped.stats.geometry_change) << name << ": cap is the default";
+    ASSERT_EQ(held.status, Status::Converged) << name << ": " << held.message;
+    ASSERT_EQ(capped.status, Status::Converged) << name << ": " << capped.message;
+    EXPECT_TRUE(verify(s, capped.positions, capped.forces, SolveOptions{}.tolerance).ok) << name;
+    const ForceScale scale = make_force_scale(s);
+    const double cable_sum = scale.normalisation_row.dot(capped.forces);
+    EXPECT_NEAR(cable_sum, scale.prestress_cap, 1e-6 * scale.prestress_cap) << name;
+    const auto* details = dynamic_cast<const IpoptDetails*>(capped.details.empty() ? nullptr : capped.details.front().get());
+    ASSERT_NE(details, nullptr);
+    EXPECT_EQ(details->prestress_cap_kept, improves) << name;
+    if (improves) {
+      EXPECT_LT(capped.stats.geometry_change, 0.8 * held.stats.geometry_change) << name;
+    } else {
+      EXPECT_NEAR(capped.stats.geometry_change, held.stats.geometry_change, 1e-9 * held.stats.geometry_change) << name;
+    }
+  }
 }
 
 }  // namespace

@@ -212,6 +212,23 @@ TEST(SolutionKeys, TyposAreErrorsAndOtherKeysAreKept) {
   fs::remove_all(dir);
 }
 
+// Every key `build` writes into a scene is one the scene reader knows: a built
+// character read back gives no warning and keeps its block ties.
+TEST(CharacterKeys, BuiltCharactersReadBackWithoutWarnings) {
+  const BlockLibrary library = BlockLibrary::load(kSource + "/data/blocks");
+  for (const std::string name : {"duck", "scorpion", "puppy"}) {
+    const std::string path = kSource + "/data/characters/" + name + ".character.json";
+    const Structure built = build_character(read_json_file(path), path, library).structure;
+    int ties = 0;
+    for (const auto& extra : built.element_extra) ties += extra.contains("tie") ? 1 : 0;
+    if (name != "puppy") EXPECT_GT(ties, 0) << name << ": its braced blocks carry ties";
+    WarningLog log;
+    const Structure read_back = scene_from_json(scene_to_json(built), name + ".scene.json");
+    EXPECT_TRUE(log.lines.empty()) << name << ": " << (log.lines.empty() ? "" : log.lines[0]);
+    EXPECT_EQ(read_back.num_elements(), built.num_elements()) << name;
+  }
+}
+
 TEST(CharacterKeys, ScalIsAnErrorAndColorIsKept) {
   const json duck = read_json_file(kSource + "/data/characters/duck.character.json");
   const BlockLibrary library = BlockLibrary::load(kSource + "/data/blocks");

@@ -36,9 +36,12 @@ double max_free_node_weight(const Structure& s) {
 
 // The project's own key among the native Ipopt options.
 constexpr const char* kStartKey = "start";
-// The MUMPS ordering for Eq. 5's KKT matrix: 6 = QAMD, which detects the
-// quasi-dense force-scale row (the default automatic choice does not, and its
-// factorizations then grow with the square of the structure's size).
+constexpr const char* kPrestressKey = "prestress";
+// prestress=cap keeps the capped run's answer only when its change is smaller
+// by more than round-off (the two runs often end at the same optimum).
+constexpr double kSignificantlySmaller = 1e-9;
+// The MUMPS ordering for Eq. 5's KKT matrix: 6 = QAMD, the ordering made for
+// quasi-dense rows such as the force-scale row (docs/BACKENDS.md compares them).
 constexpr int kQuasiDenseOrdering = 6;
 
 // The equilibrium alternating-gn reaches from the part's geometry, or an
@@ -127,6 +130,12 @@ IpoptOptions IpoptOptions::FromPairs(const OptionPairs& pairs) {
       else throw OptionError("ipopt", key, value, "not a start (valid: scene, alternating-gn)");
       continue;
     }
+    if (key == kPrestressKey) {
+      if (value == "equal") o.prestress = IpoptPrestress::Equal;
+      else if (value == "cap") o.prestress = IpoptPrestress::Cap;
+      else throw OptionError("ipopt", key, value, "not a prestress row (valid: equal, cap)");
+      continue;
+    }
     o.native[key] = value;
     o.typed.push_back(typed_native_option(*app, key, value));
   }
@@ -135,7 +144,7 @@ IpoptOptions IpoptOptions::FromPairs(const OptionPairs& pairs) {
 
 bool IpoptOptions::IsValid(std::string* why) const {
   try {
-    FromPairs(native);  // `start` is an enum and always valid
+    FromPairs(native);  // `start` and `prestress` are enums and always valid
   } catch (const OptionError& e) {
     if (why) *why = e.what();
     return false;
@@ -214,13 +223,49 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   auto details = std::make_shared<IpoptDetails>();
   details->return_code = run.return_code;
   details->iterations = run.iterations;
-  result.details = {std::move(details)};
+  result.details = {details};  // shared: the capped run below adds to it
 
   if (problem.has_final_point() && problem.final_point().allFinite()) {
     result.positions = nlp.positions(problem.final_point());
     result.forces = nlp.forces(problem.final_point());
   }
   Verification v = verify(part, result.positions, result.forces, options.tolerance);
+  if (ipopt_options.prestress == IpoptPrestress::Cap && scale.has_prestress_cap() &&
+      result.status == Status::Converged && v.ok && !recorder.out_of_time()) {
+    // The capped problem restarted at the held optimum: a feasible start, so
+    // Ipopt stays near it instead of wandering as it does from the scene.
+    MinimalGeometryChangeNlp capped_nlp(part, scale, PrestressRow::Cap);
+    DimensionlessEq5 capped(capped_nlp, sigma0);
+    capped.set_start(capped_nlp.equilibrium().free_nodes().gather(result.positions), result.forces);
+    // One trace for both runs: the capped run's iteration 0 is the held
+    // optimum, already recorded; its counts continue the held run's.
+    const int iteration_offset = run.iterations;
+    const int evaluation_offset = recorder.trace().empty() ? 0 : recorder.trace().back().evaluations;
+    settings.on_iteration = [&](const IpoptIteration& it) {
+      if (it.iteration > 0) {
+        TracePoint p = capped.trace_point(it, max_free_weight);
+        p.iteration += iteration_offset;
+        p.evaluations += evaluation_offset;
+        recorder.record(p);
+      }
+      return recorder.out_of_time() ? IterationControl::StopForTimeLimit : IterationControl::Continue;
+    };
+    const IpoptSolveResult capped_run = solve_with_ipopt(capped, settings);
+    details->iterations += capped_run.iterations;
+    result.stats.iterations += capped_run.iterations;
+    if (capped_run.status == Status::Converged && capped.has_final_point() && capped.final_point().allFinite()) {
+      const Eigen::Matrix3Xd x = capped_nlp.positions(capped.final_point());
+      const Eigen::VectorXd sigma = capped_nlp.forces(capped.final_point());
+      const Verification vc = verify(part, x, sigma, options.tolerance);
+      if (vc.ok && vc.geometry_change < (1.0 - kSignificantlySmaller) * v.geometry_change) {
+        result.positions = x;
+        result.forces = sigma;
+        v = vc;
+        details->prestress_cap_kept = true;
+        result.message += " (mean cable force below the cap)";
+      }
+    }
+  }
   if (result.status == Status::Converged && !v.ok && v.all_finite && v.wrong_signs == 0) {
     // Ipopt's scaled stopping test was met but not the contract's: one stress
     // solve at the final geometry, warm-started from Ipopt's forces.
@@ -250,7 +295,9 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
 }
 
 nlohmann::json IpoptDetails::to_json() const {
-  return {{"return_code", return_code}, {"iterations", iterations}};
+  nlohmann::json j = {{"return_code", return_code}, {"iterations", iterations}};
+  if (prestress_cap_kept) j["prestress_cap_kept"] = true;
+  return j;
 }
 
 std::unique_ptr<Solver> make_ipopt_solver() { return std::make_unique<IpoptSolver>(); }

@@ -43,12 +43,18 @@ namespace tensegrity {
 // change from the scene geometry, so this is a start, not a different problem).
 enum class IpoptStart { Scene, AlternatingGn };
 
-// `start=scene|alternating-gn` (default scene) and native Ipopt
-// options given as `--option key=value`, checked against Ipopt's own registry
-// (name, type and range).
+// Under gravity, Eq. 5's mean cable force: held at kappa times the weight
+// (`equal`), or first held there and then only capped by it, Ipopt restarting
+// from the held optimum and keeping the smaller verified change (`cap`).
+enum class IpoptPrestress { Equal, Cap };
+
+// `start=scene|alternating-gn` (default scene), `prestress=equal|cap`
+// (default cap: never farther than `equal`, docs/THEORY-force-scale.md) and native Ipopt options given as `--option key=value`,
+// checked against Ipopt's own registry (name, type and range).
 struct IpoptOptions {
   IpoptStart start = IpoptStart::Scene;
-  OptionPairs native;  // every pair except `start`
+  IpoptPrestress prestress = IpoptPrestress::Cap;
+  OptionPairs native;  // every pair except `start` and `prestress`
   std::vector<IpoptOption> typed;  // `native` with the types of Ipopt's registry
   static IpoptOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
@@ -57,7 +63,10 @@ struct IpoptOptions {
 // The solution file's "details" of an ipopt part solve (docs/FORMATS.md).
 struct IpoptDetails : SolverDetails {
   int return_code = 0;  // Ipopt's ApplicationReturnStatus (0: Solve_Succeeded)
-  int iterations = 0;   // Ipopt's own iteration count
+  int iterations = 0;   // Ipopt's own iteration count (both runs with prestress=cap)
+  // prestress=cap under gravity: the capped run's change was kept (it was
+  // smaller than the held run's and verified).
+  bool prestress_cap_kept = false;
   nlohmann::json to_json() const override;
 };
 

@@ -11,8 +11,19 @@ KKT system with an active set for the sign bounds.
           sum of cable forces of a part = (cables of the part) * F0
           cable sigma >= margin, strut sigma <= -margin, margin = 1e-3 F0
 
-per connected part: F0 = total gravity load on the part's free nodes when
-positive, else 1 N (the project's force-scale convention, docs/).
+per connected part: F0 = W, the total gravity load on the part's free nodes
+(own masses plus half of every touching element's mass), when positive, else
+1 N (the project's force-scale convention, docs/THEORY-force-scale.md). Parts
+are joined by elements between free nodes; an element with one fixed end
+belongs to its free end's part, and elements between two fixed nodes belong
+to no part (no equilibrium condition; they are given +-F0 of the whole scene
+with their sign, as the scene driver gives them).
+
+A part that already stands (Eq. 4 at the scene geometry: sign-bounded forces
+of any level balance it to the contract's relative residual 1e-8) is the
+answer unchanged, geometry change 0, as the scene driver returns it; Eq. 5 is
+solved for the other parts. For such a scene the Eq. 5 optimum of all parts
+is stored too (what a backend must reach without the driver's shortcut).
 
 Usage (from the repository root):
     /usr/bin/python3 tests/reference/compute_optima.py tests/reference/scenes tests/reference/optima.json
@@ -27,6 +38,8 @@ import numpy as np
 MARGIN_FRACTION = 1e-3
 KKT_TOLERANCE = 1e-12      # infinity norm of the scaled KKT residual
 MAX_NEWTON_STEPS = 200
+INERTIA_SHIFT = 1e-3       # smallest curvature of a shifted Newton model
+EQUILIBRIUM_TOLERANCE = 1e-8  # the contract's relative residual for `converged`
 
 
 def load_scene(path):
@@ -47,7 +60,9 @@ def load_scene(path):
             "mass": mass, "elements": elements, "gravity": g}
 
 
-def connected_parts(n, elements):
+def connected_parts(n, elements, fixed):
+    """Parts joined by elements between free nodes; a fixed node joins nothing
+    (it is a constant of every part that touches it)."""
     parent = list(range(n))
 
     def root(i):
@@ -57,9 +72,15 @@ def connected_parts(n, elements):
         return i
 
     for a, b, _ in elements:
-        parent[root(a)] = root(b)
+        if not fixed[a] and not fixed[b]:
+            parent[root(a)] = root(b)
     roots = sorted({root(i) for i in range(n)})
     return [root(i) for i in range(n)], roots
+
+
+def element_part(node_part, fixed, a, b):
+    """The part of an element is the part of its free end."""
+    return node_part[b] if fixed[a] else node_part[a]
 
 
 class Problem:
@@ -71,24 +92,28 @@ class Problem:
         self.nx = 3 * len(self.free)
         self.m = len(scene["elements"])
         self.loads = scene["mass"][:, None] * scene["gravity"][None, :]
-        node_part, roots = connected_parts(n, scene["elements"])
+        fixed = scene["fixed"]
+        node_part, roots = connected_parts(n, scene["elements"], fixed)
+        self.element_part = [element_part(node_part, fixed, a, b) for a, b, _ in scene["elements"]]
+        self.node_part = node_part
         f0 = {}
         for r in roots:
             weight = sum(np.linalg.norm(self.loads[i]) for i in self.free if node_part[i] == r)
             f0[r] = weight if weight > 0.0 else 1.0
+        self.part_f0 = f0
         self.parts = []  # (F0, cable indices) per part with cables
         for r in roots:
             cables = [e for e, (a, b, k) in enumerate(scene["elements"])
-                      if k == "cable" and node_part[a] == r]
+                      if k == "cable" and self.element_part[e] == r]
             if cables:
                 self.parts.append((f0[r], cables))
         self.lower = np.full(self.m, -np.inf)
         self.upper = np.full(self.m, np.inf)
         for e, (a, b, k) in enumerate(scene["elements"]):
             if k == "cable":
-                self.lower[e] = MARGIN_FRACTION * f0[node_part[a]]
+                self.lower[e] = MARGIN_FRACTION * f0[self.element_part[e]]
             else:
-                self.upper[e] = -MARGIN_FRACTION * f0[node_part[a]]
+                self.upper[e] = -MARGIN_FRACTION * f0[self.element_part[e]]
         self.nc = self.nx + len(self.parts)
 
     def positions(self, xf):
@@ -268,6 +293,16 @@ def solve(prob):
         k[:prob.nx, prob.nx:nv] = hxs[:, inactive]
         k[prob.nx:nv, :prob.nx] = hxs[:, inactive].T
         jac = np.hstack([jx, js[:, inactive]])
+        # Inertia correction: where the Lagrangian's Hessian is indefinite on the
+        # constraints' null space (after releasing a bound, say), shift it to be
+        # positive definite there, so that the step descends instead of heading
+        # for a saddle point.
+        _, sv, vt = np.linalg.svd(jac)
+        null = vt[int((sv > 1e-10 * sv[0]).sum()):].T
+        if null.shape[1]:
+            low = np.linalg.eigvalsh(null.T @ k[:nv, :nv] @ null).min()
+            if low <= 0.0:
+                k[:nv, :nv] += (INERTIA_SHIFT - low) * np.eye(nv)
         k[:nv, nv:] = jac.T
         k[nv:, :nv] = jac
         rhs = -np.concatenate([gx, gs[inactive], c])
@@ -304,6 +339,11 @@ def solve(prob):
     c, jx, js, gx, gs = kkt(prob, xf, sigma, lam, active)
     inactive = [e for e in range(prob.m) if e not in active]
     res = max(np.abs(c).max(), np.abs(gx).max(), np.abs(gs[inactive]).max() if inactive else 0.0) / scale
+    # A bound held with a multiplier of the wrong sign is no optimum (the
+    # active-set loop can cycle on one and end at the step limit).
+    wrong_multipliers = [e for e in active
+                         if (np.isfinite(prob.lower[e]) and gs[e] < -1e-10) or
+                         (np.isfinite(prob.upper[e]) and gs[e] > 1e-10)]
     # Second-order check: the Lagrangian's Hessian on the constraints' null space.
     hxx, hxs = prob.lagrangian_hessian(xf, sigma, lam)
     nv = prob.nx + len(inactive)
@@ -326,7 +366,7 @@ def solve(prob):
         "active_bounds": sorted(int(e) for e in active),
         "reduced_hessian_min_eigenvalue": reduced_min,
         "equilibrium_residual": float(np.abs(c[:prob.nx]).max()) if prob.nx else 0.0,
-        "converged": bool(res <= KKT_TOLERANCE),
+        "converged": bool(res <= KKT_TOLERANCE and not wrong_multipliers),
     }
 
 
@@ -352,6 +392,126 @@ def finite_difference_check(prob, rng):
     return worst
 
 
+def nonnegative_least_squares(a, b):
+    """min |a p - b| over p >= 0 (Lawson and Hanson's active-set method)."""
+    n = a.shape[1]
+    positive = np.zeros(n, dtype=bool)
+    p = np.zeros(n)
+    tol = 10.0 * np.finfo(float).eps * np.abs(a).sum(axis=0).max() * max(a.shape)
+    for _ in range(3 * n + 10):
+        w = a.T @ (b - a @ p)
+        candidates = np.where(~positive & (w > tol))[0]
+        if len(candidates) == 0:
+            break
+        positive[candidates[np.argmax(w[candidates])]] = True
+        while True:
+            z = np.zeros(n)
+            z[positive] = np.linalg.lstsq(a[:, positive], b, rcond=None)[0]
+            if np.all(z[positive] > 0.0):
+                break
+            blocking = positive & (z <= 0.0)
+            alpha = np.min(p[blocking] / (p[blocking] - z[blocking]))
+            p = p + alpha * (z - p)
+            positive &= p > tol
+            p[~positive] = 0.0
+        p = z
+    return p
+
+
+def standing_parts(prob):
+    """Eq. 4 at the scene geometry, part by part: the sign-bounded least-squares
+    forces (the margins as bounds, no force level) and whether they balance the
+    part to the contract's tolerance, as the scene driver checks before solving.
+    Returns {part root: (stands, relative residual, forces, forces unique)}."""
+    xf = np.concatenate([prob.s["x0"][i] for i in prob.free])
+    c, _, js = prob.constraints(xf, np.zeros(prob.m))
+    result = {}
+    for r in sorted(set(prob.element_part)):
+        cols = [e for e in range(prob.m) if prob.element_part[e] == r]
+        nodes = [i for i in prob.free if prob.node_part[i] == r]
+        rows = [3 * prob.slot[i] + k for i in nodes for k in range(3)]
+        a = js[np.ix_(rows, cols)]
+        load = c[rows]
+        sign = np.where(np.isfinite(prob.lower[cols]), 1.0, -1.0)
+        start = np.where(sign > 0.0, prob.lower[cols], prob.upper[cols])
+        # sigma = start + sign * p with p >= 0 keeps every force beyond its margin.
+        p = nonnegative_least_squares(a * sign[None, :], -(load + a @ start))
+        sigma = start + sign * p
+        net = (a @ sigma + load).reshape(-1, 3)
+        weight = max(np.linalg.norm(prob.loads[i]) for i in nodes)
+        scale = weight if weight > 0.0 else np.abs(sigma).max()
+        relative = float(np.linalg.norm(net, axis=1).max() / scale)
+        unique = bool(np.linalg.matrix_rank(a) == len(cols))
+        result[r] = (relative <= EQUILIBRIUM_TOLERANCE, relative, dict(zip(cols, sigma)), unique)
+    return result
+
+
+def subscene(scene, elements, fixed):
+    """The scene with only the given elements and the given fixed flags."""
+    sub = dict(scene)
+    sub["elements"] = [scene["elements"][e] for e in elements]
+    sub["fixed"] = fixed
+    return sub
+
+
+def reference_optimum(scene, rng):
+    """What the scene driver must return: parts that stand (Eq. 4 at the scene
+    geometry) unchanged, the Eq. 5 optimum of the others. Elements between two
+    fixed nodes are in no part: no equilibrium condition, only a sign; they get
+    the scene's F0 with their sign, as the driver gives them."""
+    fixed = scene["fixed"]
+    elements = scene["elements"]
+    attached = [e for e, (a, b, _) in enumerate(elements) if not (fixed[a] and fixed[b])]
+    unattached = [e for e in range(len(elements)) if e not in attached]
+    whole = Problem(subscene(scene, attached, fixed))
+    fd = finite_difference_check(whole, rng)
+    parts = standing_parts(whole)
+    stand = {r for r, (ok, _, _, _) in parts.items() if ok}
+    # Standing parts become constants: their free nodes fixed, their elements out.
+    moving_fixed = fixed.copy()
+    for i in whole.free:
+        if whole.node_part[i] in stand:
+            moving_fixed[i] = True
+    moving = [attached[k] for k in range(whole.m) if whole.element_part[k] not in stand]
+    forces = np.zeros(len(elements))
+    if moving:
+        result = solve(Problem(subscene(scene, moving, moving_fixed)))
+        forces[moving] = result["forces"]
+        result["active_bounds"] = [moving[k] for k in result["active_bounds"]]  # scene numbering
+    else:
+        x = scene["x0"]
+        result = {"positions": x.tolist(), "geometry_change": 0.0, "kkt_residual": None,
+                  "newton_steps": 0, "active_bounds": [], "reduced_hessian_min_eigenvalue": None,
+                  "equilibrium_residual": None, "converged": True}
+    for r in stand:
+        for k, sigma in parts[r][2].items():
+            forces[attached[k]] = sigma
+    weight = sum(np.linalg.norm(whole.loads[i]) for i in whole.free)
+    f0 = weight if weight > 0.0 else 1.0
+    for e in unattached:
+        forces[e] = f0 if elements[e][2] == "cable" else -f0
+    result["forces"] = forces.tolist()
+    if stand:
+        # What a backend run without the driver's shortcut must reach: Eq. 5
+        # for every part, the standing ones included.
+        direct = solve(whole)
+        direct_forces = np.zeros(len(elements))
+        direct_forces[attached] = direct["forces"]
+        for e in unattached:
+            direct_forces[e] = f0 if elements[e][2] == "cable" else -f0
+        direct["forces"] = direct_forces.tolist()
+        direct["active_bounds"] = [attached[k] for k in direct["active_bounds"]]
+        result["eq5_without_shortcut"] = direct
+    result["derivative_check_max_error"] = fd
+    result["stands"] = bool(stand) and not moving
+    result["parts_standing"] = len(stand)
+    result["parts"] = len(parts)
+    result["eq4_relative_residual"] = max(rel for _, rel, _, _ in parts.values())
+    result["eq4_forces_unique"] = all(parts[r][3] for r in stand)
+    result["unattached_elements"] = unattached
+    return result
+
+
 def main(argv):
     if len(argv) != 3:
         print(__doc__, file=sys.stderr)
@@ -364,39 +524,62 @@ def main(argv):
     except (OSError, subprocess.CalledProcessError):
         commit = "unknown"
     rng = np.random.default_rng(1)
+    # A stream of its own, so that the entries without gravity do not depend on
+    # which gravity scenes there are.
+    gravity_rng = np.random.default_rng(2)
     scenes = []
     for name in sorted(os.listdir(scene_dir)):
         if not name.endswith(".scene.json"):
             continue
         scene = load_scene(os.path.join(scene_dir, name))
-        if np.any(scene["gravity"] != 0.0):
-            # Under gravity the force scale of Eq. 5 is a bound on prestress
-            # whose form the backends may change: no reference optimum (README).
-            scenes.append({"name": scene["name"], "file": name, "gravity": True})
-            print("%-34s gravity: no reference optimum" % scene["name"], file=sys.stderr)
-            continue
-        prob = Problem(scene)
-        fd = finite_difference_check(prob, rng)
-        result = solve(prob)
-        result["derivative_check_max_error"] = fd
-        result["file"] = name
-        result["name"] = scene["name"]
-        result["gravity"] = False
-        print("%-34s |dx| %.12g  KKT %.2e  steps %d  active %s  min eig %.3g  fd %.1e" % (
+        gravity = bool(np.any(scene["gravity"] != 0.0))
+        result = reference_optimum(scene, gravity_rng if gravity else rng)
+        fd = result["derivative_check_max_error"]
+        print("%-34s |dx| %.12g  KKT %s  steps %d  active %s  min eig %s  fd %.1e  stands %d/%d (Eq. 4 %.1e)" % (
             scene["name"], result["geometry_change"], result["kkt_residual"], result["newton_steps"],
-            result["active_bounds"], result["reduced_hessian_min_eigenvalue"], fd), file=sys.stderr)
+            result["active_bounds"], result["reduced_hessian_min_eigenvalue"], fd,
+            result["parts_standing"], result["parts"], result["eq4_relative_residual"]), file=sys.stderr)
         if not result["converged"] or fd > 1e-5:
             print("compute_optima: %s: not converged or wrong derivatives" % name, file=sys.stderr)
             return 1
-        scenes.append({k: result[k] for k in (
-            "name", "file", "gravity", "geometry_change", "kkt_residual", "equilibrium_residual",
-            "newton_steps", "active_bounds", "reduced_hessian_min_eigenvalue",
-            "derivative_check_max_error", "positions", "forces")})
+        if result["reduced_hessian_min_eigenvalue"] is not None and not result["reduced_hessian_min_eigenvalue"] > 0.0:
+            print("compute_optima: %s: not a strict local minimum" % name, file=sys.stderr)
+            return 1
+        if result["parts_standing"] and not result["eq4_forces_unique"]:
+            print("compute_optima: %s: a standing part has no unique forces to compare" % name, file=sys.stderr)
+            return 1
+        result["file"] = name
+        result["name"] = scene["name"]
+        result["gravity"] = gravity
+        keys = ["name", "file", "gravity", "geometry_change", "kkt_residual", "equilibrium_residual",
+                "newton_steps", "active_bounds", "reduced_hessian_min_eigenvalue",
+                "derivative_check_max_error"]
+        if gravity:
+            keys += ["stands", "eq4_relative_residual", "unattached_elements"]
+        direct = result.get("eq5_without_shortcut")
+        if direct is not None:
+            print("%-34s without the shortcut: |dx| %.12g  KKT %.2e  steps %d  active %s  min eig %.3g" % (
+                scene["name"], direct["geometry_change"], direct["kkt_residual"], direct["newton_steps"],
+                direct["active_bounds"], direct["reduced_hessian_min_eigenvalue"]), file=sys.stderr)
+            if not direct["converged"] or not direct["reduced_hessian_min_eigenvalue"] > 0.0:
+                print("compute_optima: %s: Eq. 5 without the shortcut: no strict local minimum found" % name,
+                      file=sys.stderr)
+                return 1
+            result["eq5_without_shortcut"] = {k: direct[k] for k in (
+                "geometry_change", "kkt_residual", "equilibrium_residual", "newton_steps", "active_bounds",
+                "reduced_hessian_min_eigenvalue", "positions", "forces")}
+            keys.append("eq5_without_shortcut")
+        elif result["parts_standing"]:
+            print("compute_optima: %s: a part stands without load; the entry format assumes none does" % name,
+                  file=sys.stderr)
+            return 1
+        scenes.append({k: result[k] for k in keys + ["positions", "forces"]})
     out = {
         "format": "tensegrity-reference-optima",
         "version": 1,
         "problem": "Eq. 5: min |x - x0|^2 s.t. equilibrium, sign bounds with margin 1e-3 F0, "
-                   "mean cable force per part = F0 (F0 = part's free-node weight, else 1 N)",
+                   "mean cable force per part = F0 (F0 = part's free-node weight W, else 1 N); "
+                   "a part that stands (Eq. 4 at x0) is unchanged",
         "method": "Newton on the KKT system with an active set for the sign bounds (numpy, dense)",
         "command": "/usr/bin/python3 tests/reference/compute_optima.py tests/reference/scenes "
                    "tests/reference/optima.json",
