@@ -1,5 +1,6 @@
 // `eq5-newton` side by side with `alternating-gn` and `ipopt` (cold and
-// warm-started from alternating-gn) on the gravity tower family and the
+// warm-started from alternating-gn, both with prestress=equal: the same Eq. 5)
+// on the gravity tower family and the
 // 80-strut / 500-cable gravity tower.
 //
 // Tower family, L layers: `generate tower --layers L --struts-per-layer 8
@@ -78,8 +79,9 @@ const std::vector<Backend>& backends() {
   static const std::vector<Backend> b = {
       {"alternating-gn", "alternating-gn", {}},
       {"eq5-newton", "eq5-newton", {}},
-      {"ipopt-warm", "ipopt", {{"start", "alternating-gn"}}},
-      {"ipopt", "ipopt", {}},
+      // Ipopt on the same Eq. 5 (the mean cable force held at kappa W).
+      {"ipopt-warm", "ipopt", {{"start", "alternating-gn"}, {"prestress", "equal"}}},
+      {"ipopt", "ipopt", {{"prestress", "equal"}}},
   };
   return b;
 }
