@@ -241,7 +241,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     // Mehrotra's predictor: the affine step (mu = 0) sets mu from the
     // complementarity it would reach, and its second-order term corrects.
     corrector.setZero(m);
-    if (settings.predictor_corrector) {
+    if (settings.predictor_corrector && m > 0) {
       rhs.head(n) = -g;
       rhs.tail(mc) = -here.c;
       kkt.solve(rhs, solution);
