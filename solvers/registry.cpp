@@ -12,6 +12,7 @@ namespace tensegrity {
 // Factories, defined in the backends' own files.
 std::unique_ptr<Solver> make_alternating_solver();
 std::unique_ptr<Solver> make_alternating_gn_solver();
+std::unique_ptr<Solver> make_eq5_newton_solver();
 std::unique_ptr<Solver> make_nlopt_solver();
 std::unique_ptr<Solver> make_ipopt_solver();
 
@@ -26,6 +27,7 @@ const std::vector<Backend>& backends() {
   static const std::vector<Backend> kBackends = {
       {"alternating", make_alternating_solver},
       {"alternating-gn", make_alternating_gn_solver},
+      {"eq5-newton", make_eq5_newton_solver},
       {"ipopt", make_ipopt_solver},
       {"nlopt", make_nlopt_solver},
   };

@@ -156,7 +156,7 @@ class SolverWithOptions : public Solver {
   }
 };
 
-// Registry by name: "alternating", "alternating-gn", "ipopt", "nlopt".
+// Registry by name: "alternating", "alternating-gn", "eq5-newton", "ipopt", "nlopt".
 // Throws InputError for an unknown name.
 std::unique_ptr<Solver> make_solver(std::string_view name);
 std::vector<std::string> solver_names();

@@ -1,0 +1,213 @@
+#include "solvers/eq5_newton/eq5_newton_solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+
+#include "formulations/force_scale.hpp"
+#include "formulations/minimal_geometry_change_nlp.hpp"
+#include "model/verify.hpp"
+#include "solvers/eq5_newton/interior_newton.hpp"
+#include "solvers/eq5_newton/scaled_eq5.hpp"
+#include "solvers/option_reader.hpp"
+#include "solvers/trace_recorder.hpp"
+
+namespace tensegrity {
+namespace {
+
+constexpr int kLargestNewtonIterations = 100000;
+
+// The largest gravity load m_i |g| on a free node (0 without gravity).
+double max_free_node_weight(const Structure& s) {
+  if (!s.has_gravity()) return 0.0;
+  const Eigen::Matrix3Xd loads = s.gravity_loads();
+  double worst = 0.0;
+  for (int i = 0; i < s.num_nodes(); ++i)
+    if (!s.fixed[i]) worst = std::max(worst, loads.col(i).norm());
+  return worst;
+}
+
+std::string polish_name(Status s) {
+  switch (s) {
+    case Status::MaxIterations: return "max_iterations";
+    case Status::TimeLimit: return "time_limit";
+    case Status::Stalled: return "stalled";
+    case Status::Converged: return "kept";
+    default: return "numerical_error";
+  }
+}
+
+// alternating-gn from the part's geometry with its default options (the
+// driver has checked the part already, so without the shortcut).
+SolveResult equilibrium_start(const Structure& part, const SolveOptions& options) {
+  SolveOptions start_options = options;
+  start_options.backend_options.clear();
+  start_options.verbose = false;
+  return make_solver("alternating-gn")->Solve(part, start_options, DriverControls{false});
+}
+
+TracePoint trace_point(const Verification& v, int iteration, double objective) {
+  TracePoint p;
+  p.iteration = iteration;
+  p.evaluations = iteration;
+  p.residual = v.residual;
+  p.relative_residual = v.relative_residual;
+  p.geometry_change = v.geometry_change;
+  p.objective = objective;
+  return p;
+}
+
+}  // namespace
+
+Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
+  OptionReader reader(pairs, "eq5-newton");
+  Eq5NewtonOptions o;
+  o.newton_iterations = reader.integer("newton_iterations", o.newton_iterations, 1, kLargestNewtonIterations);
+  o.initial_barrier = reader.number("initial_barrier", o.initial_barrier, ValueRange::open(0.0, 1.0));
+  o.optimality_tolerance =
+      reader.number("optimality_tolerance", o.optimality_tolerance, ValueRange::open(0.0, 1.0));
+  o.proximal_weight = reader.number("proximal_weight", o.proximal_weight, ValueRange::open(0.0, 1.0));
+  o.predictor_corrector = reader.choice("barrier", "mehrotra", {"mehrotra", "monotone"}) == "mehrotra";
+  reader.reject_unknown();
+  return o;
+}
+
+bool Eq5NewtonOptions::IsValid(std::string* why) const {
+  auto fail = [&](const char* reason) {
+    if (why) *why = reason;
+    return false;
+  };
+  if (newton_iterations < 1 || newton_iterations > kLargestNewtonIterations)
+    return fail("newton_iterations must be in [1, 100000]");
+  if (!(initial_barrier > 0.0 && initial_barrier < 1.0)) return fail("initial_barrier must be in (0, 1)");
+  if (!(optimality_tolerance > 0.0 && optimality_tolerance < 1.0))
+    return fail("optimality_tolerance must be in (0, 1)");
+  if (!(proximal_weight > 0.0 && proximal_weight < 1.0)) return fail("proximal_weight must be in (0, 1)");
+  return true;
+}
+
+nlohmann::json Eq5NewtonDetails::to_json() const {
+  return {{"start_iterations", start_iterations},
+          {"start_geometry_change", start_geometry_change},
+          {"polish", polish},
+          {"newton_iterations", newton_iterations},
+          {"factorizations", factorizations},
+          {"inertia_corrections", inertia_corrections},
+          {"second_order_corrections", second_order_corrections},
+          {"dual_infeasibility", dual_infeasibility},
+          {"constraint_violation", constraint_violation},
+          {"complementarity", complementarity}};
+}
+
+SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5NewtonOptions& newton) const {
+  const Structure& part = part_problem.part;
+  const SolveOptions& options = part_problem.options;
+  TraceRecorder recorder(options.time_limit_s);
+  auto details = std::make_shared<Eq5NewtonDetails>();
+
+  // 1. alternating-gn's equilibrium, through the registry (backends do not
+  // include each other). The nested driver reports to no observer, so its
+  // records are passed on here and start this solve's trace.
+  const IterationObserver* observer = current_iteration_observer();
+  SolveResult start = equilibrium_start(part, options);
+  if (observer != nullptr && *observer)
+    for (const TracePoint& p : start.trace) (*observer)(p);
+  details->start_iterations = start.stats.iterations;
+  const Verification start_check = verify(part, start.positions, start.forces, options.tolerance);
+  details->start_geometry_change = start_check.geometry_change;
+  const int start_records = static_cast<int>(start.trace.size());
+  recorder.trace() = start.trace;
+  auto finish_with_start = [&](std::string why) {
+    SolveResult r = std::move(start);
+    r.message = "alternating-gn's equilibrium (" + r.message + "); " + why;
+    r.trace = std::move(recorder.trace());
+    r.stats.iterations = static_cast<int>(r.trace.size()) - 1;
+    r.stats.seconds = recorder.seconds();
+    r.details = {details};
+    return r;
+  };
+  if (start.status != Status::Converged || !start_check.ok) return finish_with_start("no Newton polish");
+
+  // 2. Newton on Eq. 5's KKT conditions from there.
+  const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
+  MinimalGeometryChangeNlp nlp(part, scale);
+  ScaledEq5 problem(nlp);
+  Eigen::VectorXd z0(nlp.num_variables());
+  z0.head(nlp.num_positions()) = nlp.equilibrium().free_nodes().gather(start.positions);
+  z0.tail(nlp.num_forces()) = start.forces;
+
+  // The contract asks |f_i| <= tolerance * load scale (the largest free-node
+  // weight under gravity, else max |sigma| >= F0); the Newton test bounds
+  // |f / F0|_inf, a tenth of that for the three components of a node.
+  const double max_free_weight = max_free_node_weight(part);
+  const double load_over_force =
+      max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
+  InteriorNewtonSettings settings;
+  settings.max_iterations = newton.newton_iterations;
+  settings.optimality_tolerance = newton.optimality_tolerance;
+  settings.constraint_tolerance = 0.1 * options.tolerance * load_over_force / std::sqrt(3.0);
+  settings.initial_barrier = newton.initial_barrier;
+  settings.proximal_weight = newton.proximal_weight;
+  settings.predictor_corrector = newton.predictor_corrector;
+  settings.time_limit_s = std::max(0.0, options.time_limit_s - recorder.seconds());
+
+  auto positions_and_forces = [&](const Eigen::VectorXd& y, Eigen::Matrix3Xd& x, Eigen::VectorXd& sigma) {
+    const Eigen::VectorXd z = problem.to_si(y);
+    x = nlp.positions(z);
+    sigma = nlp.forces(z);
+  };
+  Eigen::Matrix3Xd x;
+  Eigen::VectorXd sigma;
+  const InteriorNewtonOutcome outcome =
+      solve_interior_newton(problem, problem.to_scaled(z0), settings, [&](int iteration, const Eigen::VectorXd& y) {
+        positions_and_forces(y, x, sigma);
+        const Verification v = verify(part, x, sigma, options.tolerance);
+        recorder.record(trace_point(v, start_records - 1 + iteration, problem.objective(y)));
+      });
+  details->newton_iterations = outcome.iterations;
+  details->factorizations = outcome.factorizations;
+  details->inertia_corrections = outcome.inertia_corrections;
+  details->second_order_corrections = outcome.second_order_corrections;
+  details->dual_infeasibility = outcome.dual_infeasibility;
+  details->constraint_violation = outcome.constraint_violation;
+  details->complementarity = outcome.complementarity;
+  details->polish = polish_name(outcome.status);
+
+  // 3. Keep the Newton answer only when it is a verified KKT point.
+  auto record_start_again = [&] {
+    recorder.record(trace_point(start_check, static_cast<int>(recorder.trace().size()), 0.0));
+  };
+  if (outcome.status != Status::Converged) {
+    if (static_cast<int>(recorder.trace().size()) > start_records) record_start_again();
+    return finish_with_start("the Newton polish stopped (" + outcome.message + ") and was not kept");
+  }
+  positions_and_forces(outcome.y, x, sigma);
+  const Verification v = verify(part, x, sigma, options.tolerance);
+  if (!v.ok) {
+    details->polish = "rejected_by_verification";
+    if (static_cast<int>(recorder.trace().size()) > start_records) record_start_again();
+    return finish_with_start("the Newton polish failed verification and was not kept");
+  }
+  SolveResult result;
+  result.status = Status::Converged;
+  result.message = "local optimum of Eq. 5: " + outcome.message + " after " + std::to_string(outcome.iterations) +
+                   " Newton iterations from alternating-gn's equilibrium (" +
+                   std::to_string(details->start_iterations) + " iterations)";
+  result.positions = x;
+  result.forces = sigma;
+  if (static_cast<int>(recorder.trace().size()) == start_records)
+    recorder.record(trace_point(v, start_records, problem.objective(outcome.y)));
+  result.trace = std::move(recorder.trace());
+  result.stats.iterations = static_cast<int>(result.trace.size()) - 1;
+  result.stats.seconds = recorder.seconds();
+  result.stats.residual = v.residual;
+  result.stats.relative_residual = v.relative_residual;
+  result.stats.geometry_change = v.geometry_change;
+  result.details = {details};
+  return result;
+}
+
+std::unique_ptr<Solver> make_eq5_newton_solver() { return std::make_unique<Eq5NewtonSolver>(); }
+
+}  // namespace tensegrity

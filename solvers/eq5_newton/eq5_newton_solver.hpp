@@ -1,0 +1,71 @@
+#pragma once
+// The `eq5-newton` backend: alternating-gn's equilibrium, then Newton steps on
+// the KKT conditions of Eq. 5 (formulations/minimal_geometry_change_nlp.hpp)
+// from there, so that the answer is a local optimum of the geometry change.
+//
+//   1. alternating-gn (solvers/alternating) with its default options reaches
+//      a verified equilibrium from the scene; when it does not, its result is
+//      the answer.
+//   2. A primal-dual interior-point Newton method (interior_newton.hpp) on the
+//      dimensionless Eq. 5 (scaled_eq5.hpp) starts from that equilibrium: the
+//      objective still measures the change from the scene, and under gravity
+//      the force level moves to Eq. 5's kappa n_c W.
+//   3. The Newton answer is kept when its KKT test passed and model/verify
+//      accepts it; otherwise the answer is alternating-gn's verified
+//      equilibrium, and the details say why the polish was not kept.
+//
+// Options (`--option key=value`): newton_iterations (1 .. 100000, default
+// 200), initial_barrier (mu at the start, (0, 1), default 1e-6),
+// optimality_tolerance (dual infeasibility and complementarity, (0, 1),
+// default 1e-10), proximal_weight (rho on the forces, (0, 1), default 1e-8),
+// barrier (mehrotra | monotone: the barrier parameter's rule, default mehrotra).
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+
+#include "solvers/solver.hpp"
+
+namespace tensegrity {
+
+struct Eq5NewtonOptions {
+  int newton_iterations = 200;
+  double initial_barrier = 1e-6;
+  double optimality_tolerance = 1e-10;
+  double proximal_weight = 1e-8;
+  bool predictor_corrector = true;
+
+  static Eq5NewtonOptions FromPairs(const OptionPairs& pairs);
+  bool IsValid(std::string* why = nullptr) const;
+};
+
+// The solution file's "details" of an eq5-newton part solve (docs/FORMATS.md).
+struct Eq5NewtonDetails : SolverDetails {
+  int start_iterations = 0;          // alternating-gn's iterations
+  double start_geometry_change = 0;  // of alternating-gn's equilibrium (m)
+  // "kept": the Newton answer is the result; "not_run": alternating-gn did
+  // not converge; otherwise the Newton stop that was not kept
+  // ("max_iterations", "stalled", "numerical_error", "time_limit",
+  // "rejected_by_verification").
+  std::string polish = "not_run";
+  int newton_iterations = 0;
+  int factorizations = 0;
+  int inertia_corrections = 0;
+  int second_order_corrections = 0;
+  double dual_infeasibility = 0;     // dimensionless KKT residuals at the last Newton point
+  double constraint_violation = 0;
+  double complementarity = 0;
+  nlohmann::json to_json() const override;
+};
+
+class Eq5NewtonSolver : public SolverWithOptions<Eq5NewtonOptions> {
+ public:
+  std::string_view name() const override { return "eq5-newton"; }
+
+ protected:
+  SolveResult DoSolve(const PartProblem& problem, const Eq5NewtonOptions& options) const override;
+};
+
+std::unique_ptr<Solver> make_eq5_newton_solver();
+
+}  // namespace tensegrity

@@ -1,0 +1,349 @@
+#include "solvers/eq5_newton/interior_newton.hpp"
+
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+namespace tensegrity {
+namespace {
+
+// A start force closer to its bound than this share of the (scaled) margin is
+// moved to it: a slack of zero has no barrier, a tiny one an enormous multiplier.
+constexpr double kStartSlackShare = 1e-2;
+constexpr double kSmallestStartSlack = 1e-12;
+// Barrier update (Ipopt's monotone rule): solve each barrier problem to
+// kBarrierTolerance * mu, then mu <- max(mu_min, min(kBarrierDecrease mu, mu^kBarrierExponent)).
+constexpr double kBarrierTolerance = 10.0;
+constexpr double kBarrierDecrease = 0.2;
+constexpr double kBarrierExponent = 1.5;
+// Fraction to the boundary: a step keeps at least (1 - tau) of every slack, tau >= this.
+constexpr double kSmallestFractionToBoundary = 0.99;
+// Bound multipliers are kept within [mu / (k d), k mu / d] (Ipopt's kappa_Sigma).
+constexpr double kMultiplierSafeguard = 1e10;
+// Filter line search (Waechter and Biegler 2006, Ipopt's constants): the
+// Armijo constant, the margins a trial must gain on the filter's entries, the
+// exponents of the switching rule, and theta_max / theta_min relative to the
+// start's infeasibility; the largest number of halvings and the smallest step.
+constexpr double kArmijo = 1e-4;
+constexpr double kFilterInfeasibilityMargin = 1e-5;
+constexpr double kFilterObjectiveMargin = 1e-8;
+constexpr double kSwitchingObjectiveExponent = 2.3;
+constexpr double kSwitchingInfeasibilityExponent = 1.1;
+constexpr double kLargestInfeasibility = 1e4;
+constexpr double kSmallInfeasibility = 1e-4;
+constexpr int kMaxBacktracks = 40;
+constexpr double kSmallestStep = 1e-14;
+// delta_c on the multipliers' diagonal (quasi-definite matrix).
+constexpr double kDualRegularisation = 1e-10;
+// Inertia correction (Ipopt's rule): the first delta_w, its growth on the first
+// and on later failures, its reduction from the last successful one, its bounds.
+constexpr double kFirstShift = 1e-4;
+constexpr double kFirstShiftGrowth = 100.0;
+constexpr double kShiftGrowth = 8.0;
+constexpr double kShiftReduction = 1.0 / 3.0;
+constexpr double kSmallestShift = 1e-20;
+constexpr double kLargestShift = 1e20;
+// Iterative refinement of each solve against the matrix without delta_c.
+constexpr int kRefinementSteps = 6;
+constexpr double kRefinementTolerance = 1e-14;
+
+// The KKT matrix [W, J^T; J, -delta_c I] (lower triangle), its pattern and
+// fill-reducing ordering analysed once, values rewritten every factorization.
+class KktSystem {
+ public:
+  KktSystem(const Eigen::SparseMatrix<double>& hessian_pattern, const Eigen::SparseMatrix<double>& jacobian_pattern,
+            int num_positions)
+      : n_(static_cast<int>(hessian_pattern.rows())),
+        mc_(static_cast<int>(jacobian_pattern.rows())),
+        nq_(num_positions) {
+    std::vector<int> rows, cols;
+    for (int j = 0; j < hessian_pattern.outerSize(); ++j)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(hessian_pattern, j); it; ++it)
+        rows.push_back(static_cast<int>(it.row())), cols.push_back(j);
+    const int nh = static_cast<int>(rows.size());
+    for (int j = 0; j < jacobian_pattern.outerSize(); ++j)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(jacobian_pattern, j); it; ++it)
+        rows.push_back(n_ + static_cast<int>(it.row())), cols.push_back(j);
+    const int nj = static_cast<int>(rows.size()) - nh;
+    for (int i = 0; i < n_ + mc_; ++i) rows.push_back(i), cols.push_back(i);
+    std::vector<int> slot;
+    matrix_ = sparse_pattern(n_ + mc_, n_ + mc_, rows, cols, 0, slot);
+    hessian_slot_.assign(slot.begin(), slot.begin() + nh);
+    jacobian_slot_.assign(slot.begin() + nh, slot.begin() + nh + nj);
+    diagonal_slot_.assign(slot.begin() + nh + nj, slot.end());
+    ldlt_.analyzePattern(matrix_);
+  }
+
+  // Writes and factorizes the matrix; true when it factorized with inertia
+  // (n positive, mc negative pivots).
+  bool factorize(const Eigen::SparseMatrix<double>& H, const Eigen::SparseMatrix<double>& J,
+                 const Eigen::VectorXd& force_diagonal, double delta_w) {
+    double* values = matrix_.valuePtr();
+    std::fill(values, values + matrix_.nonZeros(), 0.0);
+    const double* h = H.valuePtr();
+    for (std::size_t k = 0; k < hessian_slot_.size(); ++k) values[hessian_slot_[k]] += h[k];
+    const double* a = J.valuePtr();
+    for (std::size_t k = 0; k < jacobian_slot_.size(); ++k) values[jacobian_slot_[k]] += a[k];
+    for (int i = 0; i < n_; ++i) values[diagonal_slot_[i]] += delta_w;
+    for (int e = 0; e < n_ - nq_; ++e) values[diagonal_slot_[nq_ + e]] += force_diagonal[e];
+    for (int i = 0; i < mc_; ++i) values[diagonal_slot_[n_ + i]] -= kDualRegularisation;
+    ldlt_.factorize(matrix_);
+    if (ldlt_.info() != Eigen::Success) return false;
+    const Eigen::VectorXd& D = ldlt_.vectorD();
+    if (!D.allFinite()) return false;
+    int positive = 0, negative = 0;
+    for (int i = 0; i < D.size(); ++i) {
+      if (D[i] > 0.0) ++positive;
+      else if (D[i] < 0.0) ++negative;
+    }
+    return positive == n_ && negative == mc_;
+  }
+
+  // Solves [W, J^T; J, 0] x = b with the factorization of the delta_c matrix
+  // and iterative refinement.
+  void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+    x = ldlt_.solve(b);
+    const double scale = std::max(1.0, b.cwiseAbs().maxCoeff());
+    for (int step = 0; step < kRefinementSteps; ++step) {
+      residual_ = b - matrix_.selfadjointView<Eigen::Lower>() * x;
+      residual_.tail(mc_) -= kDualRegularisation * x.tail(mc_);
+      if (residual_.cwiseAbs().maxCoeff() <= kRefinementTolerance * scale) break;
+      x += ldlt_.solve(residual_);
+    }
+  }
+
+ private:
+  int n_, mc_, nq_;
+  Eigen::SparseMatrix<double> matrix_;
+  std::vector<int> hessian_slot_, jacobian_slot_, diagonal_slot_;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_;
+  Eigen::VectorXd residual_;
+};
+
+// Values of the merit function's pieces at one point.
+struct MeritPoint {
+  double objective = 0.0;           // phi
+  double barrier = 0.0;             // - sum log d
+  double infeasibility = 0.0;       // |c|_1
+  Eigen::VectorXd c, d;
+  bool inside = false;              // every slack positive
+};
+
+void evaluate(ScaledEq5& problem, const Eigen::VectorXd& y, MeritPoint& p) {
+  problem.slacks(y, p.d);
+  p.inside = (p.d.array() > 0.0).all();
+  if (!p.inside) return;
+  p.objective = problem.objective(y);
+  problem.constraints(y, p.c);
+  p.infeasibility = p.c.lpNorm<1>();
+  p.barrier = -p.d.array().log().sum();
+}
+
+}  // namespace
+
+InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::VectorXd& y0,
+                                            const InteriorNewtonSettings& settings,
+                                            const InteriorNewtonObserver& observer) {
+  const auto start = std::chrono::steady_clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  const int n = problem.num_variables(), mc = problem.num_constraints(), nq = problem.num_positions();
+  const int m = problem.num_forces();
+  const Eigen::VectorXd& S = problem.force_signs();
+  InteriorNewtonOutcome out;
+
+  // The start, with every force strictly inside its bound.
+  Eigen::VectorXd y = y0;
+  const double min_slack = std::max(kSmallestStartSlack, kStartSlackShare * problem.scaled_margin());
+  for (int e = 0; e < m; ++e) {
+    const double d = S[e] * y[nq + e] - problem.scaled_margin();
+    if (!(d >= min_slack)) y[nq + e] = S[e] * (problem.scaled_margin() + min_slack);
+  }
+  const double mu_min = settings.optimality_tolerance / (kBarrierTolerance + 1.0);
+  double mu = std::max(settings.initial_barrier, mu_min);
+
+  MeritPoint here, trial, corrected;
+  evaluate(problem, y, here);
+  Eigen::VectorXd lambda = Eigen::VectorXd::Zero(mc);
+  Eigen::VectorXd v = mu * here.d.cwiseInverse();
+  Eigen::VectorXd g, rd, rhs(n + mc), solution, dy, dv, lambda_plus, sigma_diag, rhs_soc(n + mc), soc, y_trial, y_soc, corrector;
+  problem.gradient(y, g);
+  const Eigen::SparseMatrix<double>* J = &problem.jacobian(y);
+  KktSystem kkt(problem.hessian(y, lambda), *J, nq);
+  double last_shift = 0.0;
+  const double theta_max = kLargestInfeasibility * std::max(1.0, here.infeasibility);
+  const double theta_min = kSmallInfeasibility * std::max(1.0, here.infeasibility);
+  std::vector<std::pair<double, double>> filter;  // (theta, phi_mu) pairs a trial must not be dominated by
+  double filter_mu = mu;
+  out.y = y;
+  out.lambda = lambda;
+
+  for (int iteration = 0;; ++iteration) {
+    // Optimality of the current point.
+    rd = g + J->transpose() * lambda;
+    rd.tail(m) -= S.cwiseProduct(v);
+    out.dual_infeasibility = rd.cwiseAbs().maxCoeff();
+    out.constraint_violation = here.c.cwiseAbs().maxCoeff();
+    out.complementarity = here.d.cwiseProduct(v).cwiseAbs().maxCoeff();
+    out.iterations = iteration;
+    out.y = y;
+    out.lambda = lambda;
+    if (out.dual_infeasibility <= settings.optimality_tolerance &&
+        out.complementarity <= settings.optimality_tolerance &&
+        out.constraint_violation <= settings.constraint_tolerance) {
+      out.status = Status::Converged;
+      out.message = "KKT conditions of Eq. 5 met";
+      return out;
+    }
+    auto barrier_error = [&] {
+      const double comp = (here.d.cwiseProduct(v).array() - mu).abs().maxCoeff();
+      return std::max({out.dual_infeasibility, out.constraint_violation, comp});
+    };
+    if (!settings.predictor_corrector) {
+      while (mu > mu_min && barrier_error() <= kBarrierTolerance * mu)
+        mu = std::max(mu_min, std::min(kBarrierDecrease * mu, std::pow(mu, kBarrierExponent)));
+    }
+    if (iteration >= settings.max_iterations) {
+      out.status = Status::MaxIterations;
+      out.message = "Newton iteration budget spent";
+      return out;
+    }
+    if (seconds() > settings.time_limit_s) {
+      out.status = Status::TimeLimit;
+      out.message = "time limit";
+      return out;
+    }
+
+    // Newton step with inertia correction.
+    const Eigen::SparseMatrix<double>& H = problem.hessian(y, lambda);
+    sigma_diag = v.cwiseQuotient(here.d).array() + settings.proximal_weight;
+    double shift = 0.0;
+    ++out.factorizations;
+    bool ok = kkt.factorize(H, *J, sigma_diag, shift);
+    if (!ok) {
+      shift = last_shift == 0.0 ? kFirstShift : std::max(kSmallestShift, kShiftReduction * last_shift);
+      while (true) {
+        ++out.factorizations;
+        ++out.inertia_corrections;
+        if (kkt.factorize(H, *J, sigma_diag, shift)) break;
+        shift *= last_shift == 0.0 ? kFirstShiftGrowth : kShiftGrowth;
+        if (shift > kLargestShift) {
+          out.status = Status::NumericalError;
+          out.message = "no inertia correction made the KKT matrix factorizable";
+          return out;
+        }
+      }
+      last_shift = shift;
+    }
+    // Mehrotra's predictor: the affine step (mu = 0) sets mu from the
+    // complementarity it would reach, and its second-order term corrects.
+    corrector.setZero(m);
+    if (settings.predictor_corrector && m > 0) {
+      rhs.head(n) = -g;
+      rhs.tail(mc) = -here.c;
+      kkt.solve(rhs, solution);
+      const Eigen::VectorXd ds = S.cwiseProduct(solution.segment(nq, m));
+      const Eigen::VectorXd dv_affine = -v - v.cwiseQuotient(here.d).cwiseProduct(ds);
+      double alpha_p = 1.0, alpha_d = 1.0;
+      for (int e = 0; e < m; ++e) {
+        if (ds[e] < 0.0) alpha_p = std::min(alpha_p, -here.d[e] / ds[e]);
+        if (dv_affine[e] < 0.0) alpha_d = std::min(alpha_d, -v[e] / dv_affine[e]);
+      }
+      const double mu_now = here.d.dot(v) / m;
+      const double mu_affine = (here.d + alpha_p * ds).dot(v + alpha_d * dv_affine) / m;
+      mu = std::clamp(mu_now * std::pow(mu_affine / mu_now, 3.0), mu_min, mu_now);
+      corrector = ds.cwiseProduct(dv_affine);
+    }
+    rhs.head(n) = -g;
+    rhs.segment(nq, m) += S.cwiseProduct((mu - corrector.array()).matrix().cwiseQuotient(here.d));
+    rhs.tail(mc) = -here.c;
+    kkt.solve(rhs, solution);
+    if (!solution.allFinite()) {
+      out.status = Status::NumericalError;
+      out.message = "the Newton step is not finite";
+      return out;
+    }
+    dy = solution.head(n);
+    lambda_plus = solution.tail(mc);
+    dv = (mu - corrector.array()).matrix().cwiseQuotient(here.d) - v -
+         v.cwiseQuotient(here.d).cwiseProduct(S.cwiseProduct(dy.tail(m)));
+
+    // Fraction to the boundary, for the forces and for their multipliers.
+    const double tau = std::max(kSmallestFractionToBoundary, 1.0 - mu);
+    double alpha_max = 1.0, alpha_v = 1.0;
+    for (int e = 0; e < m; ++e) {
+      const double dd = S[e] * dy[nq + e];
+      if (dd < 0.0) alpha_max = std::min(alpha_max, -tau * here.d[e] / dd);
+      if (dv[e] < 0.0) alpha_v = std::min(alpha_v, -tau * v[e] / dv[e]);
+    }
+
+    // Filter line search on (theta, phi_mu) = (|c|_1, phi - mu sum log d).
+    const double theta = here.infeasibility, phi = here.objective + mu * here.barrier;
+    const double slope = g.dot(dy) - mu * S.cwiseQuotient(here.d).dot(dy.tail(m));
+    if (mu != filter_mu) filter.clear(), filter_mu = mu;
+    bool objective_step = false;
+    auto acceptable = [&](const MeritPoint& t, double a) {
+      if (!t.inside) return false;
+      const double theta_t = t.infeasibility, phi_t = t.objective + mu * t.barrier;
+      if (!std::isfinite(phi_t) || theta_t > theta_max) return false;
+      for (const auto& [theta_f, phi_f] : filter)
+        if (theta_t >= theta_f && phi_t >= phi_f) return false;
+      objective_step = theta <= theta_min && slope < 0.0 &&
+                       a * std::pow(-slope, kSwitchingObjectiveExponent) >
+                           std::pow(theta, kSwitchingInfeasibilityExponent);
+      if (objective_step) return phi_t <= phi + kArmijo * a * slope;
+      return theta_t <= (1.0 - kFilterInfeasibilityMargin) * theta || phi_t <= phi - kFilterObjectiveMargin * theta;
+    };
+    double alpha = alpha_max;
+    bool accepted = false;
+    for (int backtrack = 0; backtrack < kMaxBacktracks && alpha >= kSmallestStep; ++backtrack, alpha *= 0.5) {
+      y_trial = y + alpha * dy;
+      evaluate(problem, y_trial, trial);
+      if (acceptable(trial, alpha)) {
+        accepted = true;
+        break;
+      }
+      if (backtrack == 0 && trial.inside) {
+        // Second-order correction: back onto the constraints in the W metric.
+        rhs_soc.setZero();
+        rhs_soc.tail(mc) = -trial.c;
+        kkt.solve(rhs_soc, soc);
+        y_soc = y_trial + soc.head(n);
+        evaluate(problem, y_soc, corrected);
+        const bool keeps_fraction =
+            corrected.inside && (corrected.d.array() >= (1.0 - tau) * here.d.array()).all();
+        if (keeps_fraction && acceptable(corrected, alpha)) {
+          y_trial = y_soc;
+          std::swap(trial, corrected);
+          ++out.second_order_corrections;
+          accepted = true;
+          break;
+        }
+      }
+    }
+    if (!accepted) {
+      out.status = Status::Stalled;
+      out.message = "the filter line search found no acceptable step";
+      return out;
+    }
+    if (!objective_step)
+      filter.emplace_back((1.0 - kFilterInfeasibilityMargin) * theta, phi - kFilterObjectiveMargin * theta);
+
+    y = y_trial;
+    std::swap(here, trial);
+    lambda += alpha * (lambda_plus - lambda);
+    v += alpha_v * dv;
+    for (int e = 0; e < m; ++e) {
+      const double low = mu / (kMultiplierSafeguard * here.d[e]), high = kMultiplierSafeguard * mu / here.d[e];
+      v[e] = std::clamp(v[e], low, high);
+    }
+    problem.gradient(y, g);
+    J = &problem.jacobian(y);
+    if (observer) observer(iteration + 1, y);
+  }
+}
+
+}  // namespace tensegrity

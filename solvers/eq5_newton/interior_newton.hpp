@@ -1,0 +1,80 @@
+#pragma once
+// A primal-dual interior-point Newton method for Eq. 5 (scaled_eq5.hpp),
+// meant to start close to the answer (alternating-gn's equilibrium).
+//
+// The sign bounds d(y) >= 0 carry a log barrier mu; each iteration is one
+// Newton step on the perturbed KKT conditions
+//
+//   grad phi + J^T lambda - S^T v = 0,   c(y) = 0,   d .* v = mu,
+//
+// reduced to the symmetric system
+//
+//   [ H + S^T Sigma S + rho P + delta_w I   J^T        ] [ dy       ]   [ -grad phi + S^T mu / d ]
+//   [ J                                     -delta_c I ] [ lambda+  ] = [ -c                     ]
+//
+// (Sigma = v / d, H the Hessian of phi + lambda^T c, P the projection on the
+// forces). rho is a small proximal weight on the forces: Eq. 5 does not fix
+// the forces along the self-stresses of A that keep c^T sigma, so without it
+// the matrix is singular as mu -> 0; the step's right-hand side is the exact
+// residual, so it changes the path, not the solution. delta_c keeps the
+// matrix quasi-definite so that a sparse LDL^T without pivoting (Eigen's
+// SimplicialLDLT, AMD ordering analysed once) is stable; iterative refinement
+// removes it from the solution. The signs of D give the inertia: when it is
+// not (n, mc), delta_w grows (as in Ipopt) until it is, so that the step
+// minimises a model that is convex on the constraints' tangent space.
+//
+// Steps stay strictly inside the bounds (fraction to the boundary), are
+// accepted by a filter line search on (|c|_1, phi - mu sum log d) (Waechter
+// and Biegler 2006: Armijo on the barrier objective when the step is an
+// objective step, one second-order correction against the Maratos effect,
+// then halving; no restoration phase: a failed search ends `stalled`), and mu
+// falls superlinearly (mu <- max(mu_min, min(0.2 mu, mu^1.5))) whenever the
+// barrier problem is solved to 10 mu. Stop: dual infeasibility and
+// complementarity below optimality_tolerance and |c|_inf below
+// constraint_tolerance (all dimensionless).
+#include <Eigen/Core>
+#include <functional>
+#include <limits>
+#include <string>
+
+#include "model/status.hpp"
+#include "solvers/eq5_newton/scaled_eq5.hpp"
+
+namespace tensegrity {
+
+struct InteriorNewtonSettings {
+  int max_iterations = 200;
+  double optimality_tolerance = 1e-10;
+  double constraint_tolerance = 1e-10;
+  double initial_barrier = 1e-6;   // mu at the start
+  double proximal_weight = 1e-8;   // rho on the forces
+  // mu from Mehrotra's predictor every iteration (with its second-order
+  // correction) instead of the monotone rule.
+  bool predictor_corrector = false;
+  double time_limit_s = std::numeric_limits<double>::infinity();
+};
+
+struct InteriorNewtonOutcome {
+  Status status = Status::NumericalError;
+  std::string message;
+  Eigen::VectorXd y;            // last accepted point (scaled)
+  Eigen::VectorXd lambda;       // equality multipliers (scaled)
+  int iterations = 0;
+  int factorizations = 0;
+  int inertia_corrections = 0;  // factorizations repeated with a larger delta_w
+  int second_order_corrections = 0;
+  double dual_infeasibility = 0.0;
+  double constraint_violation = 0.0;
+  double complementarity = 0.0;
+};
+
+// Called after every accepted step with the iteration number and the point.
+using InteriorNewtonObserver = std::function<void(int iteration, const Eigen::VectorXd& y)>;
+
+// `y0`: the start (scaled); forces closer to their bound than a tiny slack
+// are moved inside first.
+InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::VectorXd& y0,
+                                            const InteriorNewtonSettings& settings,
+                                            const InteriorNewtonObserver& observer = {});
+
+}  // namespace tensegrity

@@ -1,0 +1,104 @@
+#include "solvers/eq5_newton/scaled_eq5.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tensegrity {
+
+Eigen::SparseMatrix<double> sparse_pattern(int num_rows, int num_cols, const std::vector<int>& rows,
+                                           const std::vector<int>& cols, int extra_diagonal,
+                                           std::vector<int>& slot) {
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(rows.size() + static_cast<std::size_t>(extra_diagonal));
+  for (std::size_t k = 0; k < rows.size(); ++k) triplets.emplace_back(rows[k], cols[k], 0.0);
+  for (int i = 0; i < extra_diagonal; ++i) triplets.emplace_back(i, i, 0.0);
+  Eigen::SparseMatrix<double> pattern(num_rows, num_cols);
+  pattern.setFromTriplets(triplets.begin(), triplets.end());
+  pattern.makeCompressed();
+  slot.resize(rows.size());
+  const int* outer = pattern.outerIndexPtr();
+  const int* inner = pattern.innerIndexPtr();
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const int* begin = inner + outer[cols[k]];
+    const int* end = inner + outer[cols[k] + 1];
+    slot[k] = static_cast<int>(std::lower_bound(begin, end, rows[k]) - inner);
+  }
+  return pattern;
+}
+
+ScaledEq5::ScaledEq5(MinimalGeometryChangeNlp& nlp) : nlp_(nlp) {
+  nq_ = nlp.num_positions();
+  m_ = nlp.num_forces();
+  n_ = nlp.num_variables();
+  mc_ = nlp.num_constraints();
+  length_ = nlp.length_scale();
+  const ForceScale& fs = nlp.force_scale();
+  force_ = fs.reference_force;
+  margin_ = fs.margin / force_;
+  if (fs.has_normalisation()) target_ = fs.normalisation_target / force_;
+  if (fs.has_prestress_cap()) target_ = fs.prestress_cap / force_;
+  scale_.resize(n_);
+  scale_.head(nq_).setConstant(length_);
+  scale_.tail(m_).setConstant(force_);
+  signs_.resize(m_);
+  for (int e = 0; e < m_; ++e) signs_[e] = std::isfinite(fs.lower[e]) ? 1.0 : -1.0;
+
+  std::vector<int> rows, cols;
+  nlp.jacobian_structure(rows, cols);
+  jacobian_ = sparse_pattern(mc_, n_, rows, cols, 0, jac_slot_);
+  jac_factor_.resize(rows.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) jac_factor_[k] = scale_[cols[k]] / force_;
+  jac_values_.resize(rows.size());
+
+  nlp.hessian_structure(rows, cols);
+  hessian_ = sparse_pattern(n_, n_, rows, cols, n_, hess_slot_);
+  hess_factor_.resize(rows.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) hess_factor_[k] = scale_[rows[k]] * scale_[cols[k]];
+  hess_values_.resize(rows.size());
+}
+
+Eigen::VectorXd ScaledEq5::to_scaled(const Eigen::VectorXd& z) const { return z.cwiseQuotient(scale_); }
+Eigen::VectorXd ScaledEq5::to_si(const Eigen::VectorXd& y) const { return y.cwiseProduct(scale_); }
+
+double ScaledEq5::objective(const Eigen::VectorXd& y) const {
+  z_ = to_si(y);
+  return nlp_.objective(z_);
+}
+
+void ScaledEq5::gradient(const Eigen::VectorXd& y, Eigen::VectorXd& g) const {
+  z_ = to_si(y);
+  nlp_.gradient(z_, grad_z_);
+  g = grad_z_.cwiseProduct(scale_);
+}
+
+void ScaledEq5::constraints(const Eigen::VectorXd& y, Eigen::VectorXd& c) {
+  z_ = to_si(y);
+  nlp_.constraints(z_, c_z_);
+  c = c_z_ / force_;
+  if (mc_ > nq_) c[nq_] -= target_;
+}
+
+const ScaledEq5::SparseMatrix& ScaledEq5::jacobian(const Eigen::VectorXd& y) {
+  z_ = to_si(y);
+  nlp_.jacobian_values(z_, jac_values_.data());
+  double* values = jacobian_.valuePtr();
+  std::fill(values, values + jacobian_.nonZeros(), 0.0);
+  for (std::size_t k = 0; k < jac_values_.size(); ++k) values[jac_slot_[k]] += jac_factor_[k] * jac_values_[k];
+  return jacobian_;
+}
+
+const ScaledEq5::SparseMatrix& ScaledEq5::hessian(const Eigen::VectorXd& y, const Eigen::VectorXd& lambda) {
+  z_ = to_si(y);
+  lambda_z_ = lambda / force_;
+  nlp_.hessian_values(z_, 1.0, lambda_z_, hess_values_.data());
+  double* values = hessian_.valuePtr();
+  std::fill(values, values + hessian_.nonZeros(), 0.0);
+  for (std::size_t k = 0; k < hess_values_.size(); ++k) values[hess_slot_[k]] += hess_factor_[k] * hess_values_[k];
+  return hessian_;
+}
+
+void ScaledEq5::slacks(const Eigen::VectorXd& y, Eigen::VectorXd& d) const {
+  d = signs_.cwiseProduct(y.tail(m_)).array() - margin_;
+}
+
+}  // namespace tensegrity

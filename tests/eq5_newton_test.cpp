@@ -1,0 +1,233 @@
+// The `eq5-newton` backend (solvers/eq5_newton): the dimensionless Eq. 5's
+// derivatives against finite differences, its answers against the reference
+// optima of tests/reference/optima.json (no gravity) and against Ipopt's
+// (gravity), its options and its fallback to alternating-gn's equilibrium.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "formulations/force_scale.hpp"
+#include "formulations/minimal_geometry_change_nlp.hpp"
+#include "model/errors.hpp"
+#include "model/json_io.hpp"
+#include "model/scene_io.hpp"
+#include "model/verify.hpp"
+#include "scenes/suites.hpp"
+#include "solvers/eq5_newton/eq5_newton_solver.hpp"
+#include "solvers/eq5_newton/scaled_eq5.hpp"
+#include "solvers/solver.hpp"
+
+namespace tensegrity {
+namespace {
+
+using Dense = Eigen::MatrixXd;
+
+const std::string kReferenceDir = std::string(TENSEGRITY_SOURCE_DIR) + "/tests/reference/";
+
+// Central differences with this step (y is O(1)) are good to about 1e-7 relative.
+constexpr double kStep = 1e-6;
+constexpr double kDerivativeTolerance = 1e-6;
+
+std::vector<Structure> derivative_scenes() {
+  using namespace tensegrity::scenes;
+  return {perturbed(prism(5, 10.0), 0.05, 31u), perturbed(prism(4, 10.0, true), 0.02, 32u),
+          perturbed(octahedron(true), 0.03, 33u)};
+}
+
+// A point with moved positions and forces of the right signs.
+Eigen::VectorXd random_point(ScaledEq5& p, const MinimalGeometryChangeNlp& nlp, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd sigma(nlp.num_forces());
+  for (int e = 0; e < nlp.num_forces(); ++e)
+    sigma[e] = p.force_signs()[e] * nlp.force_scale().reference_force * (0.5 + std::abs(u(rng)));
+  Eigen::VectorXd y = p.to_scaled(nlp.initial_point(sigma));
+  for (int i = 0; i < nlp.num_positions(); ++i) y[i] += 0.05 * u(rng);
+  return y;
+}
+
+double relative_error(const Dense& analytic, const Dense& fd) {
+  return (analytic - fd).cwiseAbs().maxCoeff() / std::max(analytic.cwiseAbs().maxCoeff(), 1e-300);
+}
+
+TEST(ScaledEq5, DerivativesMatchFiniteDifferences) {
+  std::mt19937 rng(77u);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const Structure& s : derivative_scenes()) {
+    SCOPED_TRACE(s.name);
+    MinimalGeometryChangeNlp nlp(s, make_force_scale(s));
+    ScaledEq5 p(nlp);
+    const int n = p.num_variables(), mc = p.num_constraints();
+    const Eigen::VectorXd y = random_point(p, nlp, rng);
+    Eigen::VectorXd lambda(mc);
+    for (int r = 0; r < mc; ++r) lambda[r] = u(rng);
+
+    Eigen::VectorXd g, cp, cm, gp, gm;
+    p.gradient(y, g);
+    const Dense J = Dense(p.jacobian(y));
+    const Dense H_lower = Dense(p.hessian(y, lambda));
+    const Dense H = Dense(H_lower.selfadjointView<Eigen::Lower>());
+    auto lagrangian_gradient = [&](const Eigen::VectorXd& yy) {
+      Eigen::VectorXd grad;
+      p.gradient(yy, grad);
+      return Eigen::VectorXd(grad + Dense(p.jacobian(yy)).transpose() * lambda);
+    };
+    Dense g_fd(n, 1), J_fd(mc, n), H_fd(n, n);
+    for (int j = 0; j < n; ++j) {
+      Eigen::VectorXd yp = y, ym = y;
+      yp[j] += kStep;
+      ym[j] -= kStep;
+      g_fd(j, 0) = (p.objective(yp) - p.objective(ym)) / (2 * kStep);
+      p.constraints(yp, cp);
+      p.constraints(ym, cm);
+      J_fd.col(j) = (cp - cm) / (2 * kStep);
+      H_fd.col(j) = (lagrangian_gradient(yp) - lagrangian_gradient(ym)) / (2 * kStep);
+    }
+    EXPECT_LT(relative_error(Dense(g), g_fd), kDerivativeTolerance);
+    EXPECT_LT(relative_error(J, J_fd), kDerivativeTolerance);
+    EXPECT_LT(relative_error(H, H_fd), kDerivativeTolerance);
+    // Upper triangle empty: the Hessian is stored as its lower triangle.
+    EXPECT_EQ(Dense(H_lower.triangularView<Eigen::StrictlyUpper>()).cwiseAbs().maxCoeff(), 0.0);
+
+    // The constraint rows are f / F0 and (c^T sigma - t) / F0: zero at an
+    // equilibrium with the force level t.
+    Eigen::VectorXd c;
+    p.constraints(y, c);
+    const Eigen::VectorXd z = p.to_si(y);
+    EXPECT_NEAR(c[mc - 1] * nlp.force_scale().reference_force,
+                nlp.force_scale().normalisation_row.dot(nlp.forces(z)) -
+                    (s.has_gravity() ? nlp.force_scale().prestress_cap : nlp.force_scale().normalisation_target),
+                1e-9 * nlp.force_scale().reference_force * nlp.num_forces());
+  }
+}
+
+struct Reference {
+  std::string name, file;
+  bool gravity = false;
+  double geometry_change = 0.0;
+};
+
+std::vector<Reference> references() {
+  const nlohmann::json j = read_json_file(kReferenceDir + "optima.json");
+  std::vector<Reference> refs;
+  for (const auto& s : j.at("scenes")) {
+    Reference r;
+    r.name = s.at("name").get<std::string>();
+    r.file = s.at("file").get<std::string>();
+    r.gravity = s.at("gravity").get<bool>();
+    if (!r.gravity) r.geometry_change = s.at("geometry_change").get<double>();
+    refs.push_back(r);
+  }
+  return refs;
+}
+
+const Eq5NewtonDetails& newton_details(const SolveResult& r) {
+  return dynamic_cast<const Eq5NewtonDetails&>(*r.details.at(0));
+}
+
+// Relative agreement with the reference optimum asked of the Newton answer.
+constexpr double kSameChange = 1e-6;
+
+TEST(Eq5Newton, ReachesTheReferenceOptimaWithoutGravity) {
+  const auto solver = make_solver("eq5-newton");
+  for (const std::string barrier : {"mehrotra", "monotone"}) {
+    for (const Reference& ref : references()) {
+      if (ref.gravity) continue;
+      SCOPED_TRACE(ref.name + " barrier=" + barrier);
+      const Structure scene = read_scene_file(kReferenceDir + "scenes/" + ref.file);
+      SolveOptions options;
+      options.backend_options = {{"barrier", barrier}};
+      const SolveResult r = solver->Solve(scene, options);
+      ASSERT_EQ(r.status, Status::Converged) << r.message;
+      for (const auto& d : r.details) {
+        ASSERT_NE(d, nullptr);
+        EXPECT_EQ(dynamic_cast<const Eq5NewtonDetails&>(*d).polish, "kept") << r.message;
+      }
+      const Verification v = verify(scene, r.positions, r.forces, 1e-8);
+      EXPECT_TRUE(v.ok);
+      std::printf("%-9s %-28s change %.12g reference %.12g ratio %.10f\n", barrier.c_str(), ref.name.c_str(),
+                  v.geometry_change, ref.geometry_change, v.geometry_change / ref.geometry_change);
+      EXPECT_NEAR(v.geometry_change / ref.geometry_change, 1.0, kSameChange);
+    }
+  }
+}
+
+// Under gravity there is no independent reference: Ipopt's converged answer
+// is the comparison, and the Newton answer may only be as far or closer.
+TEST(Eq5Newton, UnderGravityMovesNoFartherThanIpopt) {
+  const auto newton = make_solver("eq5-newton");
+  const auto ipopt = make_solver("ipopt");
+  int compared = 0;
+  for (const Reference& ref : references()) {
+    if (!ref.gravity) continue;
+    SCOPED_TRACE(ref.name);
+    const Structure scene = read_scene_file(kReferenceDir + "scenes/" + ref.file);
+    const SolveResult r = newton->Solve(scene, SolveOptions{});
+    ASSERT_EQ(r.status, Status::Converged) << r.message;
+    EXPECT_TRUE(verify(scene, r.positions, r.forces, 1e-8).ok);
+    for (const auto& d : r.details)  // none when the scene already stands
+      EXPECT_EQ(dynamic_cast<const Eq5NewtonDetails&>(*d).polish, "kept") << r.message;
+    SolveOptions held;  // Eq. 5 as this backend solves it: the mean cable force held at W
+    held.backend_options = {{"prestress", "equal"}};
+    const SolveResult reference = ipopt->Solve(scene, held);
+    if (reference.status != Status::Converged) continue;
+    ++compared;
+    std::printf("%-28s change %.12g ipopt %.12g ratio %.10f\n", ref.name.c_str(), r.stats.geometry_change,
+                reference.stats.geometry_change, r.stats.geometry_change / reference.stats.geometry_change);
+    EXPECT_LE(r.stats.geometry_change, reference.stats.geometry_change * (1.0 + kSameChange));
+  }
+  EXPECT_GT(compared, 0);
+}
+
+TEST(Eq5Newton, MovesNoFartherThanAlternatingGnWithoutGravity) {
+  const Structure scene = scenes::perturbed(scenes::prism(6, 10.0), 0.05, 5u);
+  const SolveResult newton = make_solver("eq5-newton")->Solve(scene, SolveOptions{});
+  const SolveResult gn = make_solver("alternating-gn")->Solve(scene, SolveOptions{});
+  ASSERT_EQ(newton.status, Status::Converged) << newton.message;
+  ASSERT_EQ(gn.status, Status::Converged) << gn.message;
+  EXPECT_NEAR(newton_details(newton).start_geometry_change, gn.stats.geometry_change, 1e-12);
+  std::printf("eq5-newton %.15g alternating-gn %.15g\n", newton.stats.geometry_change, gn.stats.geometry_change);
+  EXPECT_LE(newton.stats.geometry_change, gn.stats.geometry_change * (1.0 + 1e-7));
+}
+
+TEST(Eq5Newton, KeepsAlternatingGnsEquilibriumWhenThePolishStops) {
+  const Structure scene = scenes::perturbed(scenes::prism(6, 10.0), 0.05, 5u);
+  SolveOptions options;
+  options.backend_options = {{"newton_iterations", "1"}};
+  const SolveResult r = make_solver("eq5-newton")->Solve(scene, options);
+  const SolveResult gn = make_solver("alternating-gn")->Solve(scene, SolveOptions{});
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_EQ(newton_details(r).polish, "max_iterations");
+  EXPECT_EQ(newton_details(r).newton_iterations, 1);
+  EXPECT_TRUE(r.positions == gn.positions);
+  EXPECT_TRUE(r.forces == gn.forces);
+  EXPECT_NE(r.message.find("not kept"), std::string::npos) << r.message;
+  const nlohmann::json j = newton_details(r).to_json();
+  EXPECT_EQ(j.at("polish"), "max_iterations");
+  EXPECT_EQ(j.at("start_iterations").get<int>(), newton_details(r).start_iterations);
+}
+
+TEST(Eq5Newton, OptionsAreTypedAndRangeChecked) {
+  EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"newton_iterations", "7"}}).newton_iterations, 7);
+  EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"initial_barrier", "1e-4"}}).initial_barrier, 1e-4);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"newton_iterations", "0"}}), OptionError);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"initial_barrier", "1"}}), OptionError);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"optimality_tolerance", "0"}}), OptionError);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"proximal_weight", "-1"}}), OptionError);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"mu", "1"}}), OptionError);
+  EXPECT_TRUE(Eq5NewtonOptions{}.predictor_corrector);
+  EXPECT_FALSE(Eq5NewtonOptions::FromPairs({{"barrier", "monotone"}}).predictor_corrector);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"barrier", "adaptive"}}), OptionError);
+  EXPECT_TRUE(Eq5NewtonOptions{}.IsValid());
+  Eq5NewtonOptions bad;
+  bad.initial_barrier = 0.0;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_NE(why.find("initial_barrier"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace tensegrity
