@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "simulation/simulator.hpp"
+#include "simulation/stability.hpp"
 
 namespace tensegrity {
 
@@ -74,9 +75,82 @@ Eigen::MatrixXd rest_length_sensitivity(const ElasticEnergy& energy, const Eigen
   return -K.ldlt().solve(G);
 }
 
-std::vector<ActuationLevel> find_actuators(const ElasticModel& model, const Eigen::Matrix3Xd& equilibrium,
-                                           const std::vector<Pose>& poses, const ActuationOptions& options) {
+namespace {
+
+struct NonlinearState {
+  Eigen::VectorXd dl;     // accepted rest-length changes of the chosen elements (m)
+  Eigen::Matrix3Xd x;     // the verified static solve at L + dl
+  Eigen::VectorXd r;      // target residual at x
+  Eigen::MatrixXd J;      // d(target positions) / d(dl) at x
+  int cables_slack = 0;   // at x
+};
+
+Eigen::MatrixXd chosen_columns(const Eigen::MatrixXd& J, const std::vector<int>& chosen) {
+  Eigen::MatrixXd Js(J.rows(), chosen.size());
+  for (std::size_t k = 0; k < chosen.size(); ++k) Js.col(k) = J.col(chosen[k]);
+  return Js;
+}
+
+// Largest t in (0, 1] such that t * step keeps every chosen cable taut with
+// margin and every relative change within bounds.
+double step_fraction(const ElasticModel& model, const std::vector<int>& chosen, const NonlinearState& s,
+                     const Eigen::VectorXd& step, const ActuationOptions& o) {
+  double t = 1.0;
+  for (std::size_t k = 0; k < chosen.size(); ++k) {
+    const int e = chosen[k];
+    const double L = model.rest_lengths[e] + s.dl[k];
+    if (std::abs(step[k]) > o.max_relative_change * L) t = std::min(t, o.max_relative_change * L / std::abs(step[k]));
+    if (model.curve_of[e] >= 0 && step[k] > 0.0) {
+      const auto& el = model.structure.elements[e];
+      const double stretch = (s.x.col(el.b) - s.x.col(el.a)).norm() - L;
+      t = std::min(t, std::max(0.0, o.slack_margin * stretch) / step[k]);
+    }
+  }
+  return t;
+}
+
+// Damped Gauss-Newton on the verified residual from dl = 0.
+NonlinearState solve_pose(const ElasticModel& model, const Eigen::Matrix3Xd& x0, const Pose& pose,
+                          const std::vector<int>& chosen, const Eigen::MatrixXd& J0, const ActuationOptions& o,
+                          int& steps_accepted) {
+  const FreeNodeMap map = ElasticEnergy(model).free_map();
+  NonlinearState s{Eigen::VectorXd::Zero(chosen.size()), x0, target_residual(pose, x0), J0};
+  steps_accepted = 0;
+  for (int it = 0; it < o.newton_iterations; ++it) {
+    const Eigen::VectorXd step = s.J.colPivHouseholderQr().solve(s.r);
+    if (!step.allFinite() || step.norm() == 0.0) break;
+    bool improved = false;
+    for (double t = step_fraction(model, chosen, s, step, o); t > 1e-3 && !improved; t *= 0.5) {
+      ElasticModel candidate = model;
+      const Eigen::VectorXd dl_try = s.dl + t * step;
+      for (std::size_t k = 0; k < chosen.size(); ++k) candidate.rest_lengths[chosen[k]] += dl_try[k];
+      const ElasticEnergy energy(candidate);
+      const RelaxResult rr = relax(energy, s.x);
+      if (rr.status != Status::Converged) continue;
+      const Eigen::VectorXd r_try = target_residual(pose, rr.positions);
+      if (r_try.norm() >= s.r.norm()) continue;
+      const Eigen::MatrixXd J_try =
+          chosen_columns(pose_jacobian(rest_length_sensitivity(energy, rr.positions), target_rows(map, pose)), chosen);
+      if (!J_try.allFinite()) continue;
+      improved = true;
+      s = {dl_try, rr.positions, r_try, J_try, rr.cables_slack};
+      ++steps_accepted;
+    }
+    if (!improved) break;
+  }
+  return s;
+}
+
+}  // namespace
+
+ActuationResult find_actuators(const ElasticModel& model, const Eigen::Matrix3Xd& equilibrium,
+                               const std::vector<Pose>& poses, const ActuationOptions& options) {
+  ActuationResult result;
   const ElasticEnergy energy(model);
+  const StabilityReport stability = analyze_stability(energy, equilibrium);
+  result.stable_start = stability.verdict == Stability::Stable;
+  result.message = stability.message;
+  if (!result.stable_start) return result;
   const FreeNodeMap& map = energy.free_map();
   const int m = model.structure.num_elements();
   const Eigen::MatrixXd dxdl = rest_length_sensitivity(energy, equilibrium);
@@ -86,7 +160,6 @@ std::vector<ActuationLevel> find_actuators(const ElasticModel& model, const Eige
     J.push_back(pose_jacobian(dxdl, target_rows(map, p)));
     r0.push_back(target_residual(p, equilibrium));
   }
-  std::vector<ActuationLevel> levels;
   std::vector<int> chosen;
   std::vector<Eigen::VectorXd> residual = r0;
   for (int level = 0; level < options.max_actuators; ++level) {
@@ -110,57 +183,23 @@ std::vector<ActuationLevel> find_actuators(const ElasticModel& model, const Eige
     ActuationLevel out;
     out.elements = chosen;
     for (std::size_t p = 0; p < poses.size(); ++p) {
-      Eigen::MatrixXd Js(J[p].rows(), chosen.size());
-      for (std::size_t k = 0; k < chosen.size(); ++k) Js.col(k) = J[p].col(chosen[k]);
+      const Eigen::MatrixXd Js = chosen_columns(J[p], chosen);
       PoseResult pr;
       pr.name = poses[p].name;
-      pr.rest_length_change = Js.colPivHouseholderQr().solve(r0[p]);
-      residual[p] = r0[p] - Js * pr.rest_length_change;
+      const Eigen::VectorXd linear_change = Js.colPivHouseholderQr().solve(r0[p]);
+      residual[p] = r0[p] - Js * linear_change;
       pr.initial_error = rms(r0[p]);
       pr.linear_error = rms(residual[p]);
-      // Nonlinear: Gauss-Newton on the relaxed equilibrium, starting from zero.
-      ElasticModel trial = model;  // the model at the accepted rest lengths
-      Eigen::VectorXd dl = Eigen::VectorXd::Zero(chosen.size());
-      Eigen::Matrix3Xd x = equilibrium;
-      Eigen::VectorXd r = r0[p];
-      Eigen::MatrixXd Jk = Js;
-      for (int it = 0; it < options.newton_iterations; ++it) {
-        Eigen::VectorXd step = Jk.colPivHouseholderQr().solve(r);
-        double worst = 0.0;
-        for (std::size_t k = 0; k < chosen.size(); ++k)
-          worst = std::max(worst, std::abs(step[k]) / model.rest_lengths[chosen[k]]);
-        if (worst > options.max_relative_change) step *= options.max_relative_change / worst;
-        // Backtrack on the verified residual.
-        bool improved = false;
-        for (double t = 1.0; t > 1e-3 && !improved; t *= 0.5) {
-          ElasticModel candidate = model;
-          const Eigen::VectorXd dl_try = dl + t * step;
-          for (std::size_t k = 0; k < chosen.size(); ++k) candidate.rest_lengths[chosen[k]] += dl_try[k];
-          const ElasticEnergy ce(candidate);
-          const RelaxResult rr = relax(ce, x);
-          if (rr.status != Status::Converged) continue;
-          const Eigen::VectorXd r_try = target_residual(poses[p], rr.positions);
-          if (r_try.norm() < r.norm()) {
-            improved = true;
-            dl = dl_try;
-            x = rr.positions;
-            r = r_try;
-            trial = std::move(candidate);
-          }
-        }
-        if (!improved) break;
-        const ElasticEnergy te(trial);
-        const Eigen::MatrixXd Jfull = pose_jacobian(rest_length_sensitivity(te, x), target_rows(map, poses[p]));
-        for (std::size_t k = 0; k < chosen.size(); ++k) Jk.col(k) = Jfull.col(chosen[k]);
-      }
-      pr.rest_length_change = dl;
-      pr.reached_error = rms(r);
-      pr.max_error = max_distance(r);
+      const NonlinearState s = solve_pose(model, equilibrium, poses[p], chosen, Js, options, pr.steps_accepted);
+      pr.rest_length_change = s.dl;
+      pr.reached_error = rms(s.r);
+      pr.max_error = max_distance(s.r);
+      pr.cables_slack = s.cables_slack;
       out.poses.push_back(pr);
     }
-    levels.push_back(std::move(out));
+    result.levels.push_back(std::move(out));
   }
-  return levels;
+  return result;
 }
 
 }  // namespace tensegrity

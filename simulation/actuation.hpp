@@ -17,6 +17,15 @@
 // nonlinear model: rest lengths L + dL, static relax (solvers/simulator.hpp),
 // residual at the targets, J re-linearised at the relaxed state. The reached
 // error is that of the verified static solve.
+//
+// Both stages need x0 to be a stable equilibrium (K positive definite): at a
+// saddle, K^{-1} is not the response of the structure, and any change of a
+// rest length lets the static solve fall away from x0. Linear cords at 10 %
+// strain leave a character's struts too little cable stiffness against their
+// negative geometric stiffness; find_actuators reports such a start instead of
+// stepping. A cable lengthened past its current length goes slack (its column
+// of dx/dL vanishes), so a step may use at most `slack_margin` of a chosen
+// cable's remaining stretch l - L; other cables may go slack (reported).
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -37,8 +46,9 @@ struct Pose {
 
 struct ActuationOptions {
   int max_actuators = 6;
-  int newton_iterations = 8;
+  int newton_iterations = 12;
   double max_relative_change = 0.5;  // |dL / L| per step is scaled down to this
+  double slack_margin = 0.5;         // fraction of a cable's stretch l - L one step may lengthen it by
   bool cables_only = false;          // struts may also change length when false
 };
 
@@ -49,6 +59,8 @@ struct PoseResult {
   double linear_error = 0.0;           // rms predicted by the linearisation (m)
   double reached_error = 0.0;          // rms after the nonlinear solve, verified by relax (m)
   double max_error = 0.0;              // largest target distance after the solve (m)
+  int steps_accepted = 0;              // Gauss-Newton steps that lowered the verified error
+  int cables_slack = 0;                // cables slack in the reached state (none of the chosen ones)
 };
 
 struct ActuationLevel {
@@ -56,8 +68,13 @@ struct ActuationLevel {
   std::vector<PoseResult> poses;
 };
 
-// One level per set size 1..max_actuators (each set extends the previous).
-std::vector<ActuationLevel> find_actuators(const ElasticModel& model, const Eigen::Matrix3Xd& equilibrium,
+struct ActuationResult {
+  bool stable_start = false;  // x0 is a stable equilibrium; levels is empty otherwise
+  std::string message;        // why not, or the start's smallest stiffness eigenvalue
+  std::vector<ActuationLevel> levels;  // one per set size 1..max_actuators (each set extends the previous)
+};
+
+ActuationResult find_actuators(const ElasticModel& model, const Eigen::Matrix3Xd& equilibrium,
                                            const std::vector<Pose>& poses, const ActuationOptions& options = {});
 
 // d x / d L at the free coordinates (3 n_free x m) at equilibrium x.

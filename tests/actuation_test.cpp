@@ -64,7 +64,9 @@ TEST(Actuation, OneCablePoseIsFoundAndReached) {
   for (int i = 3; i < 6; ++i) pose.targets.push_back({i, target.col(i)});
   ActuationOptions o;
   o.max_actuators = 2;
-  const auto levels = find_actuators(p.model, p.x0, {pose}, o);
+  const ActuationResult result = find_actuators(p.model, p.x0, {pose}, o);
+  ASSERT_TRUE(result.stable_start) << result.message;
+  const auto& levels = result.levels;
   ASSERT_EQ(levels.size(), 2u);
   const PoseResult& one = levels[0].poses[0];
   EXPECT_GT(one.initial_error, 1e-3);  // the pose is millimetres away
