@@ -4,6 +4,7 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "simulation/simulator.hpp"
 #include "simulation/stability.hpp"
@@ -109,22 +110,92 @@ double step_fraction(const ElasticModel& model, const std::vector<int>& chosen, 
   return t;
 }
 
+// l - L per cable at x (a longer rest length leaves it slack); +inf for struts.
+Eigen::VectorXd cable_stretch(const ElasticModel& model, const Eigen::Matrix3Xd& x) {
+  const int m = model.structure.num_elements();
+  Eigen::VectorXd room = Eigen::VectorXd::Constant(m, std::numeric_limits<double>::infinity());
+  for (int e = 0; e < m; ++e) {
+    if (model.curve_of[e] < 0) continue;
+    const auto& el = model.structure.elements[e];
+    room[e] = std::max(0.0, (x.col(el.b) - x.col(el.a)).norm() - model.rest_lengths[e]);
+  }
+  return room;
+}
+
+Eigen::VectorXd chosen_entries(const Eigen::VectorXd& v, const std::vector<int>& chosen) {
+  Eigen::VectorXd out(chosen.size());
+  for (std::size_t k = 0; k < chosen.size(); ++k) out[k] = v[chosen[k]];
+  return out;
+}
+
+// min |J d - r| subject to d <= upper: the unconstrained least squares on the
+// free entries, the most violated bound made active, until none is violated
+// (a few elements: at most one pass per element).
+Eigen::VectorXd bounded_least_squares(const Eigen::MatrixXd& J, const Eigen::VectorXd& r, const Eigen::VectorXd& upper) {
+  const int n = static_cast<int>(J.cols());
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(n);
+  std::vector<bool> at_bound(n, false);
+  for (int pass = 0; pass <= n; ++pass) {
+    std::vector<int> free;
+    Eigen::VectorXd rhs = r;
+    for (int k = 0; k < n; ++k) {
+      if (at_bound[k]) {
+        d[k] = upper[k];
+        rhs -= upper[k] * J.col(k);
+      } else {
+        free.push_back(k);
+      }
+    }
+    if (free.empty()) break;
+    Eigen::MatrixXd Jf(J.rows(), free.size());
+    for (std::size_t k = 0; k < free.size(); ++k) Jf.col(k) = J.col(free[k]);
+    const Eigen::VectorXd df = Jf.colPivHouseholderQr().solve(rhs);
+    int worst = -1;
+    double worst_excess = 0.0;
+    for (std::size_t k = 0; k < free.size(); ++k) {
+      d[free[k]] = df[k];
+      const double excess = df[k] - upper[free[k]];
+      if (excess > worst_excess) worst_excess = excess, worst = free[k];
+    }
+    if (worst < 0) break;
+    at_bound[worst] = true;
+  }
+  return d;
+}
+
 // Damped Gauss-Newton on the verified residual from dl = 0.
-NonlinearState solve_pose(const ElasticModel& model, const Eigen::Matrix3Xd& x0, const Pose& pose,
-                          const std::vector<int>& chosen, const Eigen::MatrixXd& J0, const ActuationOptions& o,
-                          int& steps_accepted) {
+ElasticModel with_changes(const ElasticModel& model, const std::vector<int>& chosen, const Eigen::VectorXd& dl) {
+  ElasticModel changed = model;
+  for (std::size_t k = 0; k < chosen.size(); ++k) changed.rest_lengths[chosen[k]] += dl[k];
+  return changed;
+}
+
+// The start of a level: the previous level's reached state, the new element unchanged.
+NonlinearState extend_state(const ElasticModel& model, const Pose& pose, const std::vector<int>& chosen,
+                            const NonlinearState& previous) {
+  NonlinearState s = previous;
+  s.dl = Eigen::VectorXd::Zero(chosen.size());
+  s.dl.head(previous.dl.size()) = previous.dl;
+  const ElasticEnergy energy(with_changes(model, chosen, s.dl));
+  s.J = chosen_columns(pose_jacobian(rest_length_sensitivity(energy, s.x), target_rows(energy.free_map(), pose)),
+                       chosen);
+  return s;
+}
+
+// Damped Gauss-Newton on the verified residual; every accepted state is a
+// converged static solve.
+NonlinearState solve_pose(const ElasticModel& model, const Pose& pose, const std::vector<int>& chosen,
+                          NonlinearState s, const ActuationOptions& o, int& steps_accepted) {
   const FreeNodeMap map = ElasticEnergy(model).free_map();
-  NonlinearState s{Eigen::VectorXd::Zero(chosen.size()), x0, target_residual(pose, x0), J0};
   steps_accepted = 0;
   for (int it = 0; it < o.newton_iterations; ++it) {
-    const Eigen::VectorXd step = s.J.colPivHouseholderQr().solve(s.r);
+    const Eigen::VectorXd room = o.slack_margin * chosen_entries(cable_stretch(with_changes(model, chosen, s.dl), s.x), chosen);
+    const Eigen::VectorXd step = bounded_least_squares(s.J, s.r, room);
     if (!step.allFinite() || step.norm() == 0.0) break;
     bool improved = false;
     for (double t = step_fraction(model, chosen, s, step, o); t > 1e-3 && !improved; t *= 0.5) {
-      ElasticModel candidate = model;
       const Eigen::VectorXd dl_try = s.dl + t * step;
-      for (std::size_t k = 0; k < chosen.size(); ++k) candidate.rest_lengths[chosen[k]] += dl_try[k];
-      const ElasticEnergy energy(candidate);
+      const ElasticEnergy energy(with_changes(model, chosen, dl_try));
       const RelaxResult rr = relax(energy, s.x);
       if (rr.status != Status::Converged) continue;
       const Eigen::VectorXd r_try = target_residual(pose, rr.positions);
@@ -160,8 +231,10 @@ ActuationResult find_actuators(const ElasticModel& model, const Eigen::Matrix3Xd
     J.push_back(pose_jacobian(dxdl, target_rows(map, p)));
     r0.push_back(target_residual(p, equilibrium));
   }
+  const Eigen::VectorXd lengthening_room = cable_stretch(model, equilibrium);
   std::vector<int> chosen;
   std::vector<Eigen::VectorXd> residual = r0;
+  std::vector<NonlinearState> reached(poses.size());
   for (int level = 0; level < options.max_actuators; ++level) {
     int best = -1;
     double best_gain = 0.0;
@@ -170,8 +243,11 @@ ActuationResult find_actuators(const ElasticModel& model, const Eigen::Matrix3Xd
       if (options.cables_only && model.curve_of[e] < 0) continue;
       double gain = 0.0;
       for (std::size_t p = 0; p < poses.size(); ++p) {
-        const double nrm = J[p].col(e).norm();
-        if (nrm > 0.0) gain += std::pow(J[p].col(e).dot(residual[p]) / nrm, 2);
+        const double nrm2 = J[p].col(e).squaredNorm();
+        if (nrm2 == 0.0) continue;
+        const double c = J[p].col(e).dot(residual[p]);
+        const double a = std::min(c / nrm2, lengthening_room[e]);
+        gain += 2.0 * a * c - a * a * nrm2;  // |r|^2 - |r - a J_e|^2
       }
       if (gain > best_gain) {
         best_gain = gain;
@@ -186,11 +262,14 @@ ActuationResult find_actuators(const ElasticModel& model, const Eigen::Matrix3Xd
       const Eigen::MatrixXd Js = chosen_columns(J[p], chosen);
       PoseResult pr;
       pr.name = poses[p].name;
-      const Eigen::VectorXd linear_change = Js.colPivHouseholderQr().solve(r0[p]);
+      const Eigen::VectorXd linear_change = bounded_least_squares(Js, r0[p], chosen_entries(lengthening_room, chosen));
       residual[p] = r0[p] - Js * linear_change;
       pr.initial_error = rms(r0[p]);
       pr.linear_error = rms(residual[p]);
-      const NonlinearState s = solve_pose(model, equilibrium, poses[p], chosen, Js, options, pr.steps_accepted);
+      const NonlinearState start = level == 0 ? NonlinearState{Eigen::VectorXd::Zero(1), equilibrium, r0[p], Js, 0}
+                                              : extend_state(model, poses[p], chosen, reached[p]);
+      const NonlinearState s = solve_pose(model, poses[p], chosen, start, options, pr.steps_accepted);
+      reached[p] = s;
       pr.rest_length_change = s.dl;
       pr.reached_error = rms(s.r);
       pr.max_error = max_distance(s.r);

@@ -46,7 +46,7 @@ struct Pose {
 
 struct ActuationOptions {
   int max_actuators = 6;
-  int newton_iterations = 12;
+  int newton_iterations = 20;
   double max_relative_change = 0.5;  // |dL / L| per step is scaled down to this
   double slack_margin = 0.5;         // fraction of a cable's stretch l - L one step may lengthen it by
   bool cables_only = false;          // struts may also change length when false
