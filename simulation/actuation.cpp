@@ -92,20 +92,14 @@ Eigen::MatrixXd chosen_columns(const Eigen::MatrixXd& J, const std::vector<int>&
   return Js;
 }
 
-// Largest t in (0, 1] such that t * step keeps every chosen cable taut with
-// margin and every relative change within bounds.
+// Largest t in (0, 1] such that t * step changes no chosen rest length by
+// more than max_relative_change of it.
 double step_fraction(const ElasticModel& model, const std::vector<int>& chosen, const NonlinearState& s,
                      const Eigen::VectorXd& step, const ActuationOptions& o) {
   double t = 1.0;
   for (std::size_t k = 0; k < chosen.size(); ++k) {
-    const int e = chosen[k];
-    const double L = model.rest_lengths[e] + s.dl[k];
-    if (std::abs(step[k]) > o.max_relative_change * L) t = std::min(t, o.max_relative_change * L / std::abs(step[k]));
-    if (model.curve_of[e] >= 0 && step[k] > 0.0) {
-      const auto& el = model.structure.elements[e];
-      const double stretch = (s.x.col(el.b) - s.x.col(el.a)).norm() - L;
-      t = std::min(t, std::max(0.0, o.slack_margin * stretch) / step[k]);
-    }
+    const double limit = o.max_relative_change * (model.rest_lengths[chosen[k]] + s.dl[k]);
+    if (std::abs(step[k]) > limit) t = std::min(t, limit / std::abs(step[k]));
   }
   return t;
 }
@@ -182,8 +176,8 @@ NonlinearState extend_state(const ElasticModel& model, const Pose& pose, const s
   return s;
 }
 
-// Damped Gauss-Newton on the verified residual; every accepted state is a
-// converged static solve.
+// Gauss-Newton on the verified residual, chosen cables kept taut, steps halved
+// until the residual falls; every accepted state is a converged static solve.
 NonlinearState solve_pose(const ElasticModel& model, const Pose& pose, const std::vector<int>& chosen,
                           NonlinearState s, const ActuationOptions& o, int& steps_accepted) {
   const FreeNodeMap map = ElasticEnergy(model).free_map();
