@@ -20,6 +20,7 @@
 #include "model/design.hpp"
 #include "model/json_io.hpp"
 #include "model/json_text.hpp"
+#include "model/known_keys.hpp"
 #include "model/scene_io.hpp"
 #include "model/solution.hpp"
 #include "simulation/actuation.hpp"
@@ -37,6 +38,8 @@ struct ActuationArgs {
 std::vector<Pose> read_poses_file(const std::string& path, const Structure& s, const Eigen::Matrix3Xd& x) {
   const nlohmann::json j = read_json_file(path);
   json_expect_header(j, "tensegrity-poses", path);
+  KeyChecker keys(path);
+  keys.check(j, {"format", "version", "poses"}, "");
   if (!j.contains("poses") || !j["poses"].is_array() || j["poses"].empty())
     throw InputError(path, "poses", "missing or not a non-empty array");
   std::vector<Pose> out;
@@ -45,12 +48,14 @@ std::vector<Pose> read_poses_file(const std::string& path, const Structure& s, c
     const auto& jp = j["poses"][p];
     if (!jp.is_object() || !jp.contains("targets") || !jp["targets"].is_array() || jp["targets"].empty())
       throw InputError(path, item + ".targets", "missing or not a non-empty array");
+    keys.check(jp, {"name", "targets"}, item);
     Pose pose;
     pose.name = jp.contains("name") ? json_string(jp["name"], path, item + ".name") : "pose-" + std::to_string(p);
     for (std::size_t k = 0; k < jp["targets"].size(); ++k) {
       const std::string it = item + ".targets[" + std::to_string(k) + "]";
       const auto& jt = jp["targets"][k];
       if (!jt.is_object()) throw InputError(path, it, "not an object");
+      keys.check(jt, {"node", "position", "block", "by"}, it);
       if (jt.contains("node")) {
         const int node = json_index(jt["node"], s.num_nodes(), "node", path, it + ".node");
         if (!jt.contains("position")) throw InputError(path, it + ".position", "missing");
@@ -73,6 +78,7 @@ std::vector<Pose> read_poses_file(const std::string& path, const Structure& s, c
     }
     out.push_back(std::move(pose));
   }
+  keys.report();
   return out;
 }
 

@@ -143,6 +143,19 @@ TEST_F(CliActuation, FixedNodeIsBadInput) {
   EXPECT_FALSE(exists("bad.json"));
 }
 
+TEST_F(CliActuation, MisspelledKeyIsBadInput) {
+  nlohmann::json poses = head_poses(0.01, 0.01);
+  poses["poses"][0]["targets"][0]["byy"] = poses["poses"][0]["targets"][0]["by"];
+  poses["poses"][0]["targets"][0].erase("by");
+  const testing::ProgramRun r = actuation(poses, "bad.json");
+  EXPECT_EQ(r.exit_status, 2);
+  EXPECT_TRUE(testing::is_one_line(r.err)) << r.err;
+  EXPECT_NE(r.err.find(dir_->file("poses.json") + ": poses[0].targets[0]: unknown key 'byy' (did you mean 'by'?)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(exists("bad.json"));
+}
+
 // ---- suggest-link ---------------------------------------------------------------
 
 std::vector<std::string> suggest_args(const testing::ScratchDir& dir, const std::string& a, bool stiff) {
