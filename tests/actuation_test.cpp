@@ -9,6 +9,10 @@
 
 #include "formulations/elastic_energy.hpp"
 #include "model/character.hpp"
+#include "model/design.hpp"
+#include "model/scene_io.hpp"
+#include "model/solution.hpp"
+#include "process_runner.hpp"
 #include "model/reference_scenes.hpp"
 #include "solvers/solver.hpp"
 #include "simulation/actuation.hpp"
@@ -173,6 +177,36 @@ TEST(Actuation, StableDuckReachesAPoseVerifiedByTheStaticSolve) {
     const RelaxResult check = relax(ElasticEnergy(changed), d.x0);
     ASSERT_EQ(check.status, Status::Converged) << check.message;
     EXPECT_NEAR(rms_distance(pose, check.positions), pr.reached_error, 1e-6);
+  }
+}
+
+// The buildable design (`tensegrity design`: stiffness scaling, real cord
+// material) makes the duck stable; dx/dL matches the static solve there too,
+// at cables and struts of the link, the neck, the head and the body.
+TEST(Actuation, DesignedDuckSensitivityMatchesFiniteDifferences) {
+  const testing::ScratchDir dir("actuation-design");
+  const std::string scene_file = dir.file("duck.scene.json"), solution_file = dir.file("duck.solution.json"),
+                    design_file = dir.file("duck.design.json");
+  ASSERT_EQ(dir.run({"build", std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/duck.character.json", "--out",
+                     scene_file}).exit_status, 0);
+  ASSERT_EQ(dir.run({"solve", scene_file, "--out", solution_file, "--quiet"}).exit_status, 0);
+  ASSERT_EQ(dir.run({"design", scene_file, "--out", design_file, "--quiet"}).exit_status, 0);
+  const Structure scene = read_scene_file(scene_file);
+  const Eigen::Matrix3Xd x0 = read_solution_file(solution_file, scene).positions;
+  const ElasticModel model = make_elastic_model(read_design_file(design_file));
+  const ElasticEnergy energy(model);
+  const ActuationResult start = find_actuators(model, x0, {}, ActuationOptions{});
+  EXPECT_TRUE(start.stable_start) << start.message;
+  const Eigen::MatrixXd dxdl = rest_length_sensitivity(energy, x0);
+  const FreeNodeMap& map = energy.free_map();
+  for (int e : {282, 143, 205, 80, 142, 3}) {  // link cable, neck cable, head cable, body tie, neck and body struts
+    SCOPED_TRACE(e);
+    const double h = 1e-6 * model.rest_lengths[e];
+    const Eigen::VectorXd fd =
+        (map.gather(relaxed_with_change(model, x0, e, h)) - map.gather(relaxed_with_change(model, x0, e, -h))) /
+        (2.0 * h);
+    EXPECT_GT(fd.norm(), 0.5);
+    EXPECT_LE((dxdl.col(e) - fd).norm(), 2e-5 * fd.norm());
   }
 }
 
