@@ -182,8 +182,10 @@ TEST(Actuation, StableDuckReachesAPoseVerifiedByTheStaticSolve) {
 
 // The buildable design (`tensegrity design`: stiffness scaling, real cord
 // material) makes the duck stable; dx/dL matches the static solve there too,
-// at cables and struts of the link, the neck, the head and the body.
-TEST(Actuation, DesignedDuckSensitivityMatchesFiniteDifferences) {
+// at cables and struts of the link, the neck, the head and the body, and one
+// cable reaches the head pose the 10 % cords could not move towards, to the
+// linear prediction within 10 %.
+TEST(Actuation, DesignedDuckMatchesFiniteDifferencesAndReachesThePose) {
   const testing::ScratchDir dir("actuation-design");
   const std::string scene_file = dir.file("duck.scene.json"), solution_file = dir.file("duck.solution.json"),
                     design_file = dir.file("duck.design.json");
@@ -208,6 +210,25 @@ TEST(Actuation, DesignedDuckSensitivityMatchesFiniteDifferences) {
     EXPECT_GT(fd.norm(), 0.5);
     EXPECT_LE((dxdl.col(e) - fd).norm(), 2e-5 * fd.norm());
   }
+
+  Pose pose;
+  for (int i = 0; i < scene.num_nodes(); ++i)
+    if (scene.node_extra[i].value("block", "") == "head" && !scene.fixed[i])
+      pose.targets.push_back({i, x0.col(i) + Eigen::Vector3d(0, -0.01, 0)});
+  ActuationOptions o;
+  o.max_actuators = 1;
+  const ActuationResult result = find_actuators(model, x0, {pose}, o);
+  ASSERT_EQ(result.levels.size(), 1u);
+  const PoseResult& pr = result.levels[0].poses[0];
+  EXPECT_NEAR(pr.initial_error, 0.01, 1e-12);
+  EXPECT_LT(pr.linear_error, 0.15 * pr.initial_error);
+  EXPECT_LT(pr.reached_error, 0.15 * pr.initial_error);
+  EXPECT_LT(std::abs(pr.reached_error - pr.linear_error), 0.1 * pr.linear_error);
+  ElasticModel changed = model;
+  changed.rest_lengths[result.levels[0].elements[0]] += pr.rest_length_change[0];
+  const RelaxResult check = relax(ElasticEnergy(changed), x0);
+  ASSERT_EQ(check.status, Status::Converged) << check.message;
+  EXPECT_NEAR(rms_distance(pose, check.positions), pr.reached_error, 1e-6);
 }
 
 }  // namespace
