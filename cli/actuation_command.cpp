@@ -6,7 +6,7 @@
 // Poses file: {"format": "tensegrity-poses", "version": 1, "poses": [
 //   {"name": "nod", "targets": [{"node": 12, "position": [x, y, z]},
 //                               {"block": "head", "by": [dx, dy, dz]}]}]}
-// "block" + "by" asks every node of that block to move by the same vector
+// "block" + "by" asks every free node of that block to move by the same vector
 // from its position in the solution (docs/FORMATS.md).
 // The elastic model is the design's (cable materials and rest lengths) or, without
 // --design, linear cords at --cable-strain; either must make the solution a
@@ -112,7 +112,7 @@ void register_actuation_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--max-actuators", args->max_actuators, "Largest set size tried (default 6)");
   cmd->add_flag("--cables-only", args->cables_only, "Only cables change length");
   cmd->add_option("--cable-strain", args->cable_strain,
-                  "Strain of every cable at the solution's forces (linear cords, default 0.1)");
+                  "Without --design: strain of every cable at the solution's forces (linear cords, default 0.1)");
   cmd->add_option("--design", args->design,
                   "Take cable materials and rest lengths from this design (tensegrity design --out) instead of linear cords");
   cmd->add_option("--json", args->json_out, "Also write the result as JSON to this file");
