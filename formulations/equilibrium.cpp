@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <cstddef>
 #include <map>
 #include <utility>
 
@@ -36,7 +35,6 @@ Equilibrium::Equilibrium(const Structure& s)
   unit_.resize(3, m);
 
   inverse_length_.resize(m);
-  for (Eigen::ArrayXd* a : {&ux_, &uy_, &uz_, &sx_, &sy_, &sz_, &dot_}) a->resize(m);
   slot_a_.resize(m);
   slot_b_.resize(m);
   node_a_.resize(m);
@@ -62,19 +60,6 @@ Equilibrium::Equilibrium(const Structure& s)
       if (slot_a_[e] >= 0) incidence_[fill[slot_a_[e]]++] = 2 * e;
       if (slot_b_[e] >= 0) incidence_[fill[slot_b_[e]]++] = 2 * e + 1;
     }
-    incidence_element_.resize(incidence_.size());
-    incidence_sign_.resize(incidence_.size());
-    for (std::size_t j = 0; j < incidence_.size(); ++j) {
-      incidence_element_[j] = incidence_[j] >> 1;
-      incidence_sign_[j] = incidence_[j] & 1 ? -1.0 : 1.0;
-    }
-    padded_slot_a_.resize(m);
-    padded_slot_b_.resize(m);
-    for (int e = 0; e < m; ++e) {
-      padded_slot_a_[e] = slot_a_[e] >= 0 ? slot_a_[e] : nf;
-      padded_slot_b_[e] = slot_b_[e] >= 0 ? slot_b_[e] : nf;
-    }
-    padded_.setZero(3 * nf + 3);
   }
 
   // Gravity only when it loads a free node; otherwise f_g stays identically zero.
@@ -208,31 +193,19 @@ void Equilibrium::set_free_coordinates_and_residual(const Eigen::VectorXd& q, co
 }
 
 void Equilibrium::update_elements() {
-  const int m = num_elements();
-  // d = x_b - x_a, then l = |d| = sqrt((dx^2 + dy^2) + dz^2) (Eigen's norm of
-  // a 3-vector sums in this order), 1 / l and u = d / l.
-  for (int e = 0; e < m; ++e) {
-    const double* xa = x_.col(node_a_[e]).data();
-    const double* xb = x_.col(node_b_[e]).data();
-    sx_[e] = xb[0] - xa[0];
-    sy_[e] = xb[1] - xa[1];
-    sz_[e] = xb[2] - xa[2];
-  }
-  length_.array() = ((sx_ * sx_ + sy_ * sy_) + sz_ * sz_).sqrt();
-  inverse_length_.array() = 1.0 / length_.array();
-  ux_ = sx_ / length_.array();
-  uy_ = sy_ / length_.array();
-  uz_ = sz_ / length_.array();
   degenerate_ = false;
-  for (int e = 0; e < m; ++e) {
-    if (!(length_[e] > 0.0)) {  // zero or NaN length: no direction
+  for (int e = 0; e < num_elements(); ++e) {
+    const Eigen::Vector3d d = x_.col(node_b_[e]) - x_.col(node_a_[e]);
+    const double l = d.norm();
+    length_[e] = l;
+    if (l > 0.0) {
+      inverse_length_[e] = 1.0 / l;
+      unit_.col(e) = d / l;
+    } else {  // zero or NaN length: no direction
       degenerate_ = true;
       inverse_length_[e] = 0.0;
-      ux_[e] = uy_[e] = uz_[e] = 0.0;
+      unit_.col(e).setZero();
     }
-    unit_(0, e) = ux_[e];
-    unit_(1, e) = uy_[e];
-    unit_(2, e) = uz_[e];
   }
 }
 
@@ -260,43 +233,22 @@ Eigen::VectorXd Equilibrium::residual(const Eigen::VectorXd& sigma) const {
 }
 
 void Equilibrium::residual(const Eigen::VectorXd& sigma, Eigen::VectorXd& f) const {
-  // Element forces sigma_e u_e first (vectorised), then a sum per node over its
-  // element ends (in element order, so the bits are those of an
-  // element-by-element scatter): scattering into f chains every update of a
-  // node on the previous one's store.
-  sx_ = sigma.array() * ux_;
-  sy_ = sigma.array() * uy_;
-  sz_ = sigma.array() * uz_;
-  accumulate_at_nodes(has_gravity_ ? &fg_ : nullptr, f);
-}
-
-// f_k = start_k + sum over the ends of node k, in element order, of +s_e (end a)
-// or -s_e (end b), with s = (sx_, sy_, sz_).
-void Equilibrium::accumulate_at_nodes(const Eigen::VectorXd* start, Eigen::VectorXd& f) const {
+  // A sum per node over its element ends (in element order, so the bits are
+  // those of an element-by-element scatter): scattering into f chains every
+  // update of a node on the previous one's store.
   const int nf = map_.num_free();
   f.resize(3 * nf);
-  const double* fx = sx_.data();
-  const double* fy = sy_.data();
-  const double* fz = sz_.data();
   for (int k = 0; k < nf; ++k) {
-    double x = 0.0, y = 0.0, z = 0.0;
-    if (start) {
-      x = (*start)[3 * k];
-      y = (*start)[3 * k + 1];
-      z = (*start)[3 * k + 2];
-    }
-    // x + (-1 * s) is x - s to the bit: a sign factor instead of a branch
-    // that the order of the ends would make unpredictable.
+    Eigen::Vector3d sum = has_gravity_ ? Eigen::Vector3d(fg_.segment<3>(3 * k)) : Eigen::Vector3d::Zero();
     for (int j = incidence_start_[k]; j < incidence_start_[k + 1]; ++j) {
-      const int e = incidence_element_[j];
-      const double sign = incidence_sign_[j];
-      x += sign * fx[e];
-      y += sign * fy[e];
-      z += sign * fz[e];
+      const int e = incidence_[j] >> 1;  // 2 e: end a (+ sigma u), 2 e + 1: end b (- sigma u)
+      const Eigen::Vector3d force = sigma[e] * unit_.col(e);
+      if (incidence_[j] & 1)
+        sum -= force;
+      else
+        sum += force;
     }
-    f[3 * k] = x;
-    f[3 * k + 1] = y;
-    f[3 * k + 2] = z;
+    f.segment<3>(3 * k) = sum;
   }
 }
 
@@ -323,42 +275,19 @@ const Eigen::SparseMatrix<double>& Equilibrium::jacobian_positions(const Eigen::
 void Equilibrium::jacobian_positions_product(const Eigen::VectorXd& sigma, const Eigen::VectorXd& v,
                                              Eigen::VectorXd& out) const {
   assert(&out != &v);
-  if (out.size() != num_equations()) out.resize(num_equations());
-  if (degenerate_) {  // rare: element by element, skipping the elements without direction
-    out.setZero();
-    for (int e = 0; e < num_elements(); ++e) {
-      const double inverse = inverse_length_[e];
-      if (!(inverse > 0.0)) continue;
-      const int sa = slot_a_[e], sb = slot_b_[e];
-      Eigen::Vector3d w = Eigen::Vector3d::Zero();
-      if (sb >= 0) w = v.segment<3>(3 * sb);
-      if (sa >= 0) w -= v.segment<3>(3 * sa);
-      const Eigen::Vector3d u = unit_.col(e);
-      const Eigen::Vector3d k = (sigma[e] * inverse) * (w - u.dot(w) * u);  // K w
-      if (sa >= 0) out.segment<3>(3 * sa) += k;
-      if (sb >= 0) out.segment<3>(3 * sb) -= k;
-    }
-    return;
-  }
-  // w = v_b - v_a (v of a fixed end = 0), then K w = (sigma_e / l) (w - (u.w) u)
-  // with u.w = (ux wx + uy wy) + uz wz as Eigen's 3-vector dot product sums.
-  // v padded with a zero node that the fixed ends point to: v_b - 0 and 0 - v_a
-  // are the values of the 3-vector formula's cases, without its branches.
-  padded_.head(v.size()) = v;
-  const double* vp = padded_.data();
+  out.setZero(num_equations());
   for (int e = 0; e < num_elements(); ++e) {
-    const double* va = vp + 3 * padded_slot_a_[e];
-    const double* vb = vp + 3 * padded_slot_b_[e];
-    sx_[e] = vb[0] - va[0];
-    sy_[e] = vb[1] - va[1];
-    sz_[e] = vb[2] - va[2];
+    const double inverse = inverse_length_[e];
+    if (!(inverse > 0.0)) continue;
+    const int sa = slot_a_[e], sb = slot_b_[e];
+    Eigen::Vector3d w = Eigen::Vector3d::Zero();
+    if (sb >= 0) w = v.segment<3>(3 * sb);
+    if (sa >= 0) w -= v.segment<3>(3 * sa);
+    const Eigen::Vector3d u = unit_.col(e);
+    const Eigen::Vector3d k = (sigma[e] * inverse) * (w - u.dot(w) * u);  // K w
+    if (sa >= 0) out.segment<3>(3 * sa) += k;
+    if (sb >= 0) out.segment<3>(3 * sb) -= k;
   }
-  dot_ = (ux_ * sx_ + uy_ * sy_) + uz_ * sz_;
-  const auto scale = sigma.array() * inverse_length_.array();
-  sx_ = scale * (sx_ - dot_ * ux_);
-  sy_ = scale * (sy_ - dot_ * uy_);
-  sz_ = scale * (sz_ - dot_ * uz_);
-  accumulate_at_nodes(nullptr, out);
 }
 
 void Equilibrium::hessian_structure(std::vector<int>& rows, std::vector<int>& cols) const {

@@ -100,20 +100,12 @@ class Equilibrium {
   // has direction 0 and sets degenerate_).
   void update_elements();
   void write_a_values() const;
-  void accumulate_at_nodes(const Eigen::VectorXd* start, Eigen::VectorXd& f) const;
 
   FreeNodeMap map_;
   Eigen::Matrix3Xd x_;
   Eigen::VectorXd length_;
   Eigen::Matrix3Xd unit_;
   Eigen::VectorXd inverse_length_;  // 1 / l, 0 at zero length
-  // The per-element loops run on one array per coordinate (element order) so
-  // that their arithmetic is vectorised across elements; each element's
-  // operations are those of the 3-vector formulas, in the same order, so the
-  // values are the same to the bit. Directions, element vectors d, and the
-  // scratch of residual() and jacobian_positions_product().
-  Eigen::ArrayXd ux_, uy_, uz_;
-  mutable Eigen::ArrayXd sx_, sy_, sz_, dot_;
   mutable Eigen::SparseMatrix<double> A_;
   mutable bool a_values_stale_ = false;
   Eigen::SparseMatrix<double> J_;
@@ -126,13 +118,6 @@ class Equilibrium {
   // Per free slot k, entries incidence_start_[k] .. incidence_start_[k + 1] of
   // incidence_: 2 e for end a of element e, 2 e + 1 for end b.
   std::vector<int> incidence_start_, incidence_;
-  // incidence_ split: the element, and +1 for end a, -1 for end b.
-  std::vector<int> incidence_element_;
-  std::vector<double> incidence_sign_;
-  // Per element, the free slot of each end, or num_free() for a fixed end
-  // (the zero node of padded_, v padded in jacobian_positions_product).
-  std::vector<int> padded_slot_a_, padded_slot_b_;
-  mutable Eigen::VectorXd padded_;
   // Per element, where the three u entries of end a / end b start in A_'s value
   // array (-1 for a fixed end).
   std::vector<int> a_value_index_;   // 2 per element
