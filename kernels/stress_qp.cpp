@@ -123,7 +123,7 @@ void Impl::build(const SparseMatrix& A, const ForceScale& scale,
   base.assign(nnz, 0.0);
   diag_n.setZero(m);
 
-  ldlt.analyzePattern(K);
+  ldlt.analyze(K);
   factorization_valid = false;
   held.assign(m, 0);
   factored_held.assign(m, 0);
@@ -188,9 +188,8 @@ bool Impl::factorize(const std::vector<char>& hold) {
     else
       values[k] = row_held || col_held ? 0.0 : base[k];
   }
-  ldlt.factorize(K);
   factored_held = hold;
-  factorization_valid = ldlt.info() == Eigen::Success;
+  factorization_valid = ldlt.factorize_values(K.valuePtr());
   return factorization_valid;
 }
 
@@ -254,9 +253,8 @@ bool Impl::factorize_with_diagonal(const Eigen::VectorXd& extra) {
     values[k] = base[k];
     if (k_row[k] == k_col[k] && k_row[k] < m) values[k] += extra[k_row[k]];
   }
-  ldlt.factorize(K);
   factorization_valid = false;  // not the factorization of a held set
-  return ldlt.info() == Eigen::Success;
+  return ldlt.factorize_values(K.valuePtr());
 }
 
 // (N + diag(extra)) x = b with the current factorization, refined against N + diag(extra).

@@ -7,6 +7,7 @@
 #include <limits>
 #include <vector>
 
+#include "kernels/pattern_ldlt.hpp"
 #include "kernels/stress_qp.hpp"
 
 namespace tensegrity {
@@ -109,7 +110,7 @@ struct Impl {
   std::vector<int> pair_start, pair_a, pair_b;
   Eigen::VectorXd diag_n;  // N_ii = |A_i|^2 + w^2 c_i^2 + mu
 
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+  PatternLdlt ldlt;  // K's pattern analysed once per topology
   bool factorization_valid = false;
   std::vector<char> held, factored_held;  // W of the current step / of the factorization
 
