@@ -378,7 +378,7 @@ gravity_towers() {
     echo "which). Timings are wall seconds on a shared 2-core machine, read them together with the load"
     echo "average above."
     echo
-    "$py" - "$work/gt-report/results.csv" <<'EOF2'
+    "$py" - "$work/gt-report/results.csv" "$limit" <<'EOF2'
 import csv, sys
 rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["family"] == "gravity-towers"]
 stopped = sorted({(int(float(r["elements"])), r["backend"], r["label"]) for r in rows if float(r["success"]) < 1})
@@ -387,6 +387,13 @@ if stopped:
     print(" Not verified: " + "; ".join(f"{b} at {e} elements ({l})" for e, b, l in stopped) + ".")
 else:
     print()
+limit = float(sys.argv[2])
+over = sorted((int(float(r["elements"])), r["backend"], float(r["real_s"])) for r in rows
+              if float(r["real_s"]) > 1.2 * limit)
+if over:
+    print()
+    print("Past the time limit (the limit is checked between iterations, and one iteration of these took longer): "
+          + "; ".join(f"{b} at {e} elements, {s:.3g} s" for e, b, s in over) + ".")
 EOF2
     echo
     cat "$work/gt-report/table.md"
