@@ -8,7 +8,10 @@
 // towers, characters) and scaling/<scene>/<backend> for two parametric
 // families: chain-<N> (N face-linked expandable octahedra under gravity,
 // model/character.hpp, nodes moved by seeded noise of 2 % of the strut length)
-// and tower-layers-<L> (see scaling_tower).
+// and tower-layers-<L> (see scaling_tower), and gravity-towers/<scene>/<backend>
+// for the gravity tower family tower-<L>-gravity-noise1 (58 L elements,
+// bench/gravity_tower_family.hpp): each built on its first benchmark, outside
+// the timing, by an alternating-gn equilibrium solve plus 1 % node noise.
 // Scenes are built once, before any timing; success is checked after the
 // timing loop by the independent model/verify at --success_tol.
 //
@@ -20,13 +23,16 @@
 //   --success_tol=T        relative residual that counts as success (default 1e-8)
 //   --chain_sizes=2,4,...  sizes of the chain family (default 2,4,8,16,32,64,128; empty: none)
 //   --tower_layers=2,4,... layers of the tower family (default 2,4,8,16,32; empty: none)
+//   --gravity_tower_layers=10,20,...  layers of the gravity tower family
+//                          (default 10,20,40; the sizes are 10,20,40,80,160; empty: none)
 //
 // Counters (per benchmark, from the last timed run unless said otherwise):
 //   t_1e-4 ... t_1e-10   seconds until the trace first reaches that relative
 //                        residual; -1 when never reached
 //   iterations, relative_residual (final, verified), geometry_change (m),
 //   geometry_change_L (in units of the scene's mean element length),
-//   success (1/0), elements, nodes,
+//   success (1/0: verified), converged (1/0: the backend's status), elements, nodes,
+//   seconds_per_iteration (solve seconds / iterations; -1 without iterations),
 //   peak_heap_MB         most heap bytes live at once during a solve beyond
 //                        those live before it (every malloc of the process,
 //                        C++, C and Fortran alike; max over the timed runs),
@@ -44,6 +50,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <map>
+#include <mutex>
 #include <fstream>
 #include <memory>
 #include <set>
@@ -51,6 +59,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/gravity_tower_family.hpp"
 #include "scenes/towers.hpp"
 #include "model/character.hpp"
 #include "model/verify.hpp"
@@ -141,11 +150,14 @@ struct Config {
   double success_tol = 1e-8;
   std::vector<int> chain_sizes{2, 4, 8, 16, 32, 64, 128};
   std::vector<int> tower_layers{2, 4, 8, 16, 32};
+  std::vector<int> gravity_tower_layers{10, 20, 40};
 };
 Config& config() {
   static Config c;
   return c;
 }
+
+constexpr double kGravityTowerEquilibriumLimit = 120.0;  // s, as eq5_newton_bench
 
 struct BenchScene {
   std::string family;  // "compare" or "scaling"
@@ -244,6 +256,9 @@ void run(benchmark::State& state, const std::string& backend, const Structure& s
   const Verification v = verify(scene, r.positions, r.forces, config().success_tol);
   const bool success = v.ok;
   state.counters["success"] = success ? 1.0 : 0.0;
+  state.counters["converged"] = r.status == Status::Converged ? 1.0 : 0.0;
+  state.counters["seconds_per_iteration"] =
+      r.stats.iterations > 0 ? r.stats.seconds / r.stats.iterations : -1.0;
   state.counters["iterations"] = r.stats.iterations;
   state.counters["relative_residual"] = v.relative_residual;
   state.counters["geometry_change"] = v.geometry_change;
@@ -270,7 +285,47 @@ void run(benchmark::State& state, const std::string& backend, const Structure& s
                static_cast<double>(peak_heap) / (1024.0 * 1024.0));
 }
 
+// The gravity tower of `layers` layers, built on first use: its equilibrium
+// solve takes long at the larger sizes, and a filtered run may not need it.
+const Structure* gravity_tower_scene(int layers) {
+  static std::mutex mutex;
+  static std::map<int, std::unique_ptr<Structure>> built;
+  static std::map<int, std::string> failed;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (auto it = built.find(layers); it != built.end()) return it->second.get();
+  if (failed.count(layers)) return nullptr;
+  try {
+    // The equilibrium gets the largest budget any benchmarked solve gets.
+    const double budget = std::max(config().time_limit_s, kGravityTowerEquilibriumLimit);
+    built[layers] = std::make_unique<Structure>(bench::gravity_tower(layers, budget));
+    return built[layers].get();
+  } catch (const std::exception& e) {
+    failed[layers] = e.what();
+    std::fprintf(stderr, "%s\n", e.what());
+    return nullptr;
+  }
+}
+
 void register_all() {
+  for (int layers : config().gravity_tower_layers)
+    for (const std::string& backend : solver_names()) {
+      const std::string name = "gravity-towers/" + bench::gravity_tower_name(layers) + "/" + backend;
+      benchmark::RegisterBenchmark(name.c_str(),
+                                   [backend, layers](benchmark::State& st) {
+                                     const Structure* scene = gravity_tower_scene(layers);
+                                     if (!scene) {
+                                       st.SkipWithError("no equilibrium of the unperturbed tower");
+                                       for (auto _ : st) {
+                                       }
+                                       return;
+                                     }
+                                     run(st, backend, *scene);
+                                   })
+          ->Unit(benchmark::kMillisecond)
+          ->Iterations(1)
+          ->MeasureProcessCPUTime()
+          ->UseRealTime();
+    }
   static const std::vector<BenchScene> scenes = all_scenes();
   for (const BenchScene& s : scenes)
     for (const std::string& backend : solver_names()) {
@@ -316,6 +371,8 @@ void parse_own_flags(int* argc, char** argv) {
         config().chain_sizes = parse_int_list(value);
       } else if (take_flag(argv[i], "--tower_layers=", &value)) {
         config().tower_layers = parse_int_list(value);
+      } else if (take_flag(argv[i], "--gravity_tower_layers=", &value)) {
+        config().gravity_tower_layers = parse_int_list(value);
       } else {
         argv[out++] = argv[i];
       }

@@ -4,9 +4,8 @@
 // 80-strut / 500-cable gravity tower.
 //
 // Tower family, L layers: `generate tower --layers L --struts-per-layer 8
-// --cables 50L --gravity` (scenes::make_prism_tower without noise), solved to
-// equilibrium by alternating-gn, then 1 % node noise (scenes::with_tower_noise,
-// seed 1). The 80/500 gravity tower: data/bench/tower-80s-500c-gravity with
+// --cables 50L --gravity`, solved to equilibrium by alternating-gn, then 1 %
+// node noise (bench/gravity_tower_family.hpp, shared with compare_bench). The 80/500 gravity tower: data/bench/tower-80s-500c-gravity with
 // 2 % noise (scenes::perturbed_tower). Counters: geometry change (m), converged
 // (verified), iterations, Newton iterations (eq5-newton), elements.
 // Run with
@@ -21,10 +20,12 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "bench/gravity_tower_family.hpp"
 #include "model/verify.hpp"
 #include "scenes/towers.hpp"
 #include "solvers/eq5_newton/eq5_newton_solver.hpp"
@@ -34,7 +35,6 @@ namespace tensegrity {
 namespace {
 
 constexpr double kTimeLimit = 120.0;
-constexpr double kFamilyNoise = 0.01;
 constexpr double kStoredTowerNoise = 0.02;
 
 // `--eq5_options=key=value,...`: options of the eq5-newton runs.
@@ -48,26 +48,14 @@ std::vector<int>& tower_layers() {
   return layers;
 }
 
-// The L-layer gravity tower at an equilibrium, with 1 % node noise.
+// The L-layer member of the gravity tower family (bench/gravity_tower_family.hpp).
 Structure family_tower(int layers) {
-  scenes::TowerParameters p;
-  p.layers = layers;
-  p.struts_per_layer = 8;
-  p.cables = 50 * layers;
-  p.noise = 0.0;
-  p.gravity = true;
-  Structure s = scenes::make_prism_tower(p);
-  SolveOptions options;
-  options.time_limit_s = kTimeLimit;
-  const SolveResult eq = make_solver("alternating-gn")->Solve(s, options);
-  if (eq.status != Status::Converged) {
-    std::fprintf(stderr, "tower %d: no equilibrium (%s)\n", layers, eq.message.c_str());
+  try {
+    return bench::gravity_tower(layers, kTimeLimit);
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "%s\n", e.what());
     std::exit(1);
   }
-  s.positions = eq.positions;
-  s = scenes::with_tower_noise(s, kFamilyNoise, 1u);
-  s.name = "tower-" + std::to_string(layers) + "-gravity-noise1";
-  return s;
 }
 
 struct Backend {

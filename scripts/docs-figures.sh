@@ -8,6 +8,8 @@
 #                  (stress-*.json: the raw reports)
 #   characters.md  the three characters as built (struts, cables, nodes, mass)
 #   relax.md       designed characters relaxed under gravity in four directions
+#   gravity-towers.md  the gravity tower family (compare_bench gravity-towers/),
+#                  every backend; gravity-towers.json is the raw output
 #   *.png          report.py's plots of the comparison and scaling runs
 # Every Markdown file starts with the command, the commit, the date and the
 # machine; every JSON file carries the same record under "provenance".
@@ -18,7 +20,8 @@
 # docs/figures), FIGURES_TIME_LIMIT (seconds per solve, default 10),
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters relax backends stress_noise scaling stress_families
-# ipopt_starts).
+# ipopt_starts gravity_towers), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40;
+# the whole family is 10,20,40,80,160).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${FIGURES_BUILD_DIR:-build}
@@ -354,9 +357,58 @@ EOF2
   } >>"$out/ipopt-starts.md"
 }
 
+# --- gravity tower family ----------------------------------------------------------
+gravity_towers() {
+  need_bench
+  local layers=${FIGURES_GRAVITY_TOWER_LAYERS:-10,20,40}
+  step "gravity tower family, layers $layers (time limit $limit s per solve)"
+  local cmd="$cb --benchmark_filter=^gravity-towers/ --gravity_tower_layers=$layers --chain_sizes= --tower_layers= --time_limit=$limit --benchmark_repetitions=1 --benchmark_out=gravity-towers.json --benchmark_out_format=json"
+  header "$out/gravity-towers.md" "The gravity tower family" "$cmd"
+  "$cb" --benchmark_filter='^gravity-towers/' --gravity_tower_layers="$layers" --chain_sizes= --tower_layers= \
+    --time_limit="$limit" --benchmark_repetitions=1 --benchmark_out="$work/gravity-towers.json" \
+    --benchmark_out_format=json >/dev/null 2>"$work/gravity-towers.log"
+  "$py" bench/scripts/report.py --json "$work/gravity-towers.json" --out "$work/gt-report" >"$work/gt-report.txt"
+  cp "$work/gravity-towers.json" "$out/gravity-towers.json"
+  stamp "$out/gravity-towers.json" "$cmd"
+  {
+    echo "Scenes: \`tensegrity generate tower --layers L --struts-per-layer 8 --cables 50L --gravity\`"
+    echo "(58 L elements), solved to an equilibrium by alternating-gn, then every free node moved by"
+    echo "up to 1 % of the first element's length (seed 1). One solve per scene and backend, at most"
+    echo "$limit s of wall time each: a run marked NO stopped at that limit or failed (its label says"
+    echo "which). Timings are wall seconds on a shared 2-core machine, read them together with the load"
+    echo "average above."
+    echo
+    "$py" - "$work/gt-report/results.csv" "$limit" <<'EOF2'
+import csv, sys
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["family"] == "gravity-towers"]
+stopped = sorted({(int(float(r["elements"])), r["backend"], r["label"]) for r in rows if float(r["success"]) < 1})
+print(f"{len(rows) - len(stopped)} of {len(rows)} runs verified at relative residual 1e-8.", end="")
+if stopped:
+    print(" Not verified: " + "; ".join(f"{b} at {e} elements ({l})" for e, b, l in stopped) + ".")
+else:
+    print()
+limit = float(sys.argv[2])
+over = sorted((int(float(r["elements"])), r["backend"], float(r["real_s"])) for r in rows
+              if float(r["real_s"]) > 1.2 * limit)
+if over:
+    print()
+    print("Past the time limit (the limit is checked between iterations, and one iteration of these took longer): "
+          + "; ".join(f"{b} at {e} elements, {s:.3g} s" for e, b, s in over) + ".")
+EOF2
+    echo
+    cat "$work/gt-report/table.md"
+    echo
+    echo "Fitted exponents a of time ~ elements^a (least squares on log-log over the verified sizes; report.py):"
+    echo
+    echo '```'
+    sed -n '/^Scaling families/,/^$/p' "$work/gt-report.txt" | grep -E '^(Scaling|  )'
+    echo '```'
+  } >>"$out/gravity-towers.md"
+}
+
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters relax backends stress_noise scaling stress_families ipopt_starts}; do
+for section in ${FIGURES_SECTIONS:-characters relax backends stress_noise scaling stress_families ipopt_starts gravity_towers}; do
   "$section"
 done
 step "done; figures in $out"

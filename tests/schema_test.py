@@ -29,6 +29,24 @@ SCHEMA_OF_FORMAT = {
     "tensegrity-design": "design",
     "tensegrity-stress-report": "stress-report",
     "tensegrity-batch-report": "batch-report",
+    "tensegrity-poses": "poses",
+    "tensegrity-actuation": "actuation",
+}
+
+# The duck's two poses of docs/CHARACTERS.md (head down 1 cm, head up 1 cm);
+# actuation_outputs adds a third with a node target, so both kinds are exercised.
+DUCK_POSES = {"format": "tensegrity-poses", "version": 1, "poses": [
+    {"name": "down", "targets": [{"block": "head", "by": [0.0, -0.01, 0.0]}]},
+    {"name": "left", "targets": [{"block": "head", "by": [0.0, 0.0, 0.01]}]},
+]}
+
+# Poses files the program rejects (exit 2), each of which the schema must reject too.
+BAD_POSES = {
+    "node without position": {"format": "tensegrity-poses", "version": 1,
+                              "poses": [{"targets": [{"node": 3, "by": [0.0, 0.0, 0.01]}]}]},
+    "two coordinates": {"format": "tensegrity-poses", "version": 1,
+                        "poses": [{"targets": [{"block": "head", "by": [0.0, 0.01]}]}]},
+    "no poses": {"format": "tensegrity-poses", "version": 1, "poses": []},
 }
 
 
@@ -111,7 +129,58 @@ def program_outputs(source, binary, work):
         if not files:
             raise SystemExit(f"tensegrity {' '.join(map(str, args))}: wrote no JSON file")
         written += files
+    return written + actuation_outputs(binary, work)
+
+
+def actuation_outputs(binary, work):
+    """The duck of docs/CHARACTERS.md: solve, design, then `actuation --json`
+    (the poses file is written here, the report by the program)."""
+    duck = work / "duck.scene.json"  # built by program_outputs
+    poses = work / "duck.poses.json"
+    scene = json.loads(duck.read_text())
+    node = next(i for i, n in enumerate(scene["nodes"]) if not n.get("fixed", False))
+    target = [x + 0.005 for x in scene["nodes"][node]["x"]]
+    document = copy.deepcopy(DUCK_POSES)
+    document["poses"].append({"targets": [{"node": node, "position": target}]})
+    poses.write_text(json.dumps(document, indent=1) + "\n")
+    written = [poses]
+    for args in (
+        ["solve", duck, "--out", work / "duck.solution.json", "--quiet"],
+        ["design", duck, "--out", work / "duck.design.json", "--quiet"],
+        ["actuation", duck, "--solution", work / "duck.solution.json", "--poses", poses, "--max-actuators", "2",
+         "--design", work / "duck.design.json", "--json", work / "duck.actuation.json"],
+    ):
+        files = run_program(binary, args, work)
+        if not files:
+            raise SystemExit(f"tensegrity {' '.join(map(str, args))}: wrote no JSON file")
+        written += files
+    report = json.loads((work / "duck.actuation.json").read_text())
+    if [len(level["poses"]) for level in report["levels"]] != [3, 3] or report["levels"][0]["poses"][2]["name"] != "pose-2":
+        raise SystemExit(f"{work / 'duck.actuation.json'}: expected 2 levels of 3 poses, the last named pose-2")
     return written
+
+
+def check_bad_poses(schemas, binary, work):
+    """Each bad poses file fails the schema and, with the program, exits 2."""
+    failures = 0
+    for what, document in BAD_POSES.items():
+        if not schemas.errors(document):
+            print(f"the poses schema accepted a bad poses file ({what})")
+            failures += 1
+        if binary:
+            path = work / "bad.poses.json"
+            path.write_text(json.dumps(document))
+            done = subprocess.run([str(binary), "actuation", str(work / "duck.scene.json"), "--solution",
+                                   str(work / "duck.solution.json"), "--poses", str(path), "--max-actuators", "1",
+                                   "--design", str(work / "duck.design.json")],
+                                  capture_output=True, text=True, timeout=600)
+            if done.returncode != 2:
+                print(f"tensegrity actuation accepted a bad poses file ({what}): exit {done.returncode}")
+                failures += 1
+    if schemas.errors(DUCK_POSES):
+        print("the poses schema rejects the duck's poses: " + "; ".join(schemas.errors(DUCK_POSES)))
+        failures += 1
+    return failures
 
 
 def check_files(schemas, files):
@@ -150,11 +219,29 @@ def check_live(schemas, source):
     return 0
 
 
+def check_live_actuation(schemas, path, document):
+    failures = 0
+    for mutate in (
+        lambda d: d["levels"][0]["poses"][0].pop("reached_rms"),
+        lambda d: d["levels"][0].__setitem__("actuators", 0),
+        lambda d: d["levels"][0]["poses"][0].__setitem__("rest_length_change", "shorter"),
+    ):
+        broken = copy.deepcopy(document)
+        mutate(broken)
+        if not schemas.errors(broken):
+            print(f"{path}: the tensegrity-actuation schema accepted a broken copy")
+            failures += 1
+    return failures
+
+
 def check_live_reports(schemas, written):
     """The report schemas, too, must reject a broken copy of a report the program wrote."""
     failures = 0
     for path in written:
         document = json.loads(pathlib.Path(path).read_text())
+        if document.get("format") == "tensegrity-actuation":
+            failures += check_live_actuation(schemas, path, document)
+            continue
         if document.get("format") not in ("tensegrity-batch-report", "tensegrity-stress-report"):
             continue
         key = "jobs" if document["format"] == "tensegrity-batch-report" else "trials"
@@ -194,6 +281,9 @@ def main():
             written = program_outputs(args.source, args.binary, pathlib.Path(work))
             failures += check_files(schemas, written)
             failures += check_live_reports(schemas, written)
+            failures += check_bad_poses(schemas, args.binary, pathlib.Path(work))
+    else:
+        failures += check_bad_poses(schemas, None, None)
     print(f"schema_test: {len(shipped)} shipped files, {len(written)} program outputs, {failures} mismatches")
     return 1 if failures else 0
 

@@ -6,7 +6,7 @@
 Writes into DIR:
   results.csv             one row per scene x backend (medians over repetitions)
   table.md                the same as a Markdown table (also printed)
-  scaling.csv             time and memory against elements (scaling/ family)
+  scaling.csv             time and memory against elements (scaling/ and gravity-towers/ families)
   profile.csv             Dolan-More performance profile points
   <scene>.png             relative residual and geometry change against seconds, per backend
   profile.png             performance profile (time to a verified solution)
@@ -63,7 +63,8 @@ def load_runs(paths):
             "label": runs[-1].get("label", ""),
         }
         for key in ["success", "iterations", "relative_residual", "geometry_change", "geometry_change_L",
-                    "elements", "nodes", "peak_heap_MB", "max_rss_MB", "solve_seconds"] + THRESHOLDS:
+                    "elements", "nodes", "peak_heap_MB", "max_rss_MB", "solve_seconds", "converged",
+                    "seconds_per_iteration"] + THRESHOLDS:
             values = [r[key] for r in runs if key in r]
             row[key] = statistics.median(values) if values else float("nan")
         # Success only when every repetition verified.
@@ -92,18 +93,24 @@ def fmt_t(x):
     return f"{x:.3g}"
 
 
-def write_tables(rows, out):
+def fmt_exponent(fits, r):
+    fit = fits.get(series_name(r["family"], r["scene"], r["backend"])) if fits else None
+    return "-" if not fit or not math.isfinite(fit[0]) else f"{fit[0]:.2f}"
+
+
+def write_tables(rows, out, fits=None):
     keys = sorted(rows, key=lambda k: (k[0], rows[k]["elements"], k[1], k[2]))
     fields = ["family", "scene", "backend", "elements", "success", "label", "real_s", "cpu_s", "iterations",
-              "relative_residual", "geometry_change", "geometry_change_rel"] + THRESHOLDS + ["peak_heap_MB", "repetitions"]
+              "seconds_per_iteration", "relative_residual", "geometry_change", "geometry_change_rel"] + THRESHOLDS + \
+             ["peak_heap_MB", "repetitions"]
     with open(os.path.join(out, "results.csv"), "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(fields)
         for k in keys:
             w.writerow([rows[k][x] for x in fields])
     lines = ["| scene | elem | backend | ok | wall s | CPU s | iters | t(1e-4) | t(1e-6) | t(1e-8) | t(1e-10) "
-             "| final rr | geom chg / best | heap MB |",
-             "|---|---:|---|:-:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| final rr | geom chg (m) | geom chg / best | s / iter | time exp | heap MB |",
+             "|---|---:|---|:-:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for k in keys:
         r = rows[k]
         ok = "yes" if r["success"] >= 1.0 else "NO"
@@ -111,8 +118,9 @@ def write_tables(rows, out):
         lines.append(
             f"| {r['scene']} | {int(r['elements'])} | {r['backend']} | {ok} | {r['real_s']:.3g} | {r['cpu_s']:.3g} "
             f"| {int(r['iterations'])} | " + " | ".join(fmt_t(r[t]) for t in THRESHOLDS) +
-            f" | {r['relative_residual']:.1e} | {'-' if not math.isfinite(rel) else f'{rel:.3f}'} "
-            f"| {r['peak_heap_MB']:.2f} |")
+            f" | {r['relative_residual']:.1e} | {r['geometry_change']:.4g} "
+            f"| {'-' if not math.isfinite(rel) else f'{rel:.3f}'} | {fmt_t(r['seconds_per_iteration'])} "
+            f"| {fmt_exponent(fits, r)} | {r['peak_heap_MB']:.2f} |")
     text = "\n".join(lines) + "\n"
     with open(os.path.join(out, "table.md"), "w") as f:
         f.write(text)
@@ -166,17 +174,35 @@ def family_of(scene):
     return scene.rstrip("0123456789").rstrip("-") or scene
 
 
+SCALING_FAMILIES = ("scaling", "gravity-towers")
+
+
+def series_family(family, scene):
+    """The scaling series a scene belongs to: scaling/chain-16 -> chain; every
+    gravity-towers/ scene -> gravity-towers; None outside the scaling families."""
+    if family not in SCALING_FAMILIES:
+        return None
+    return family_of(scene) if family == "scaling" else family
+
+
+def series_name(family, scene, backend):
+    f = series_family(family, scene)
+    return None if f is None else f"{backend} {f}"
+
+
 def scaling(rows, out):
     """Fits per (family, backend): keys of the result are 'backend family'."""
-    fam = [r for k, r in rows.items() if k[0] == "scaling"]
-    series = sorted({(family_of(r["scene"]), r["backend"]) for r in fam})
+    fam = [r for k, r in rows.items() if k[0] in SCALING_FAMILIES]
+    for r in fam:
+        r["series"] = series_family(r["family"], r["scene"])
+    series = sorted({(r["series"], r["backend"]) for r in fam})
     fits = {}
     with open(os.path.join(out, "scaling.csv"), "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["backend", "scene", "elements", "success", "real_s", "cpu_s", "peak_heap_MB"])
         for family, backend in series:
             b = f"{backend} {family}"
-            mine = sorted((r for r in fam if r["backend"] == backend and family_of(r["scene"]) == family),
+            mine = sorted((r for r in fam if r["backend"] == backend and r["series"] == family),
                           key=lambda r: r["elements"])
             for r in mine:
                 w.writerow([backend, r["scene"], int(r["elements"]), int(r["success"]), r["real_s"], r["cpu_s"], r["peak_heap_MB"]])
@@ -244,13 +270,13 @@ def main():
     if not rows:
         sys.exit("report.py: no compare/ or scaling/ benchmarks in " + " ".join(a.json))
     add_relative_geometry_change(rows)
-    print(write_tables(rows, a.out))
+    sc_backends, fits = scaling(rows, a.out)
+    print(write_tables(rows, a.out, fits))
 
     backends, tau_max, summary = performance_profile(rows, a.out)
     print("Performance profile over", len({(k[0], k[1]) for k in rows}), "scenes (time to a verified solution):")
     for b, (wins, solved, n) in summary.items():
         print(f"  {b:<15} fastest on {wins:>3}, solved {solved:>3} of {n}")
-    sc_backends, fits = scaling(rows, a.out)
     if fits:
         print("Scaling families, fitted exponents over verified runs: time ~ elements^a, heap ~ elements^b")
         for b, (ta, ma, ok, n, emax) in fits.items():
@@ -270,7 +296,7 @@ def main():
     if any(f[2] > 0 for f in fits.values()):
         script += "\n".join([
             'set terminal pngcairo size 1100,420 font ",10"', f"set output '{os.path.join(a.out, 'scaling.png')}'",
-            "set datafile separator whitespace", "set multiplot layout 1,2 title 'scaling families: chain-N and tower-layers-L (verified runs)'",
+            "set datafile separator whitespace", "set multiplot layout 1,2 title 'scaling families (verified runs)'",
             "set logscale xy", "set xlabel 'elements'", "set ylabel 'wall seconds'", "set key top left",
             "set autoscale x", "set autoscale y", "set format y '%g'",
             "plot " + ", ".join(f"'{os.path.join(a.out, 'scaling_' + b.replace(' ', '_') + '.dat')}' using 1:2 with linespoints pt 7 title '{b} (a={fits[b][0]:.2f})'" for b in sc_backends if fits[b][2] > 0),
