@@ -16,6 +16,7 @@
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
 #include "scenes/suites.hpp"
+#include "scenes/towers.hpp"
 #include "solvers/nlopt/nlopt_solver.hpp"
 #include "solvers/nlopt/reduced_residual.hpp"
 #include "solvers/solver.hpp"
@@ -158,7 +159,7 @@ TEST(NloptVarpro, ReachesTheReferenceOptima) {
 TEST(NloptVarpro, EveryAlgorithmVerifiesAndSlsqpReachesTheReferenceOptimum) {
   for (const auto& algorithm : NloptSolver::varpro_algorithm_names()) {
     const OptionPairs options = {{"formulation", "varpro"}, {"varpro_algorithm", algorithm}};
-    if (algorithm == "slsqp") {
+    if (algorithm == "slsqp" || algorithm == "auto") {  // auto: SLSQP at this size
       expect_reference_optimum("prism-6-noise5-s17", options);
       continue;
     }
@@ -172,6 +173,26 @@ TEST(NloptVarpro, EveryAlgorithmVerifiesAndSlsqpReachesTheReferenceOptimum) {
     EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite()) << algorithm;
     std::printf("%-14s %s, geometry change %.9g m\n", algorithm.c_str(), r.message.c_str(), v.geometry_change);
   }
+}
+
+// varpro_algorithm=auto: SLSQP on a part of at most kLargestDenseSlsqpVariables
+// position variables, CCSAQ on a larger one (one dense SLSQP iteration could
+// outlast the time limit there).
+TEST(NloptVarpro, AutoTakesSlsqpOnSmallPartsAndCcsaqOnLargeOnes) {
+  scenes::TowerParameters large;
+  large.layers = 20;
+  large.cables = 1000;
+  large.gravity = true;
+  const Structure tower = scenes::make_prism_tower(large);
+  ASSERT_GT(3 * tower.num_free_nodes(), kLargestDenseSlsqpVariables);
+  SolveOptions o;
+  o.time_limit_s = 0.5;  // the choice shows in the message; convergence is not the point
+  const SolveResult big = make_solver("nlopt")->Solve(tower, o, DriverControls{false});
+  EXPECT_NE(big.message.find("varpro ccsaq"), std::string::npos) << big.message;
+  const Structure prism = read_scene_file(kReferenceDir + "scenes/prism-6-noise5-s17.scene.json");
+  ASSERT_LE(3 * prism.num_free_nodes(), kLargestDenseSlsqpVariables);
+  const SolveResult small = make_solver("nlopt")->Solve(prism, SolveOptions{}, DriverControls{false});
+  EXPECT_NE(small.message.find("varpro slsqp"), std::string::npos) << small.message;
 }
 
 // Under gravity there is no committed optimum (tests/reference/README.md):

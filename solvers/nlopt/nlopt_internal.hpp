@@ -19,7 +19,7 @@ namespace tensegrity::nlopt_detail {
 // The full formulation's algorithms (`algorithm`).
 enum class Algorithm { AlLbfgs, AlTnewton, AlMma, AlCcsaq, PenaltyLbfgs, AuglagEqLbfgs, Slsqp };
 // The reduced formulation's algorithms (`varpro_algorithm`).
-enum class ReducedAlgorithm { Slsqp, Ccsaq, Mma, AuglagLbfgs };
+enum class ReducedAlgorithm { Auto, Slsqp, Ccsaq, Mma, AuglagLbfgs };
 
 const char* algorithm_name(Algorithm a);
 const char* reduced_algorithm_name(ReducedAlgorithm a);

@@ -31,6 +31,7 @@ struct ReducedAlgorithmEntry {
 };
 
 constexpr ReducedAlgorithmEntry kReducedAlgorithms[] = {
+    {"auto", ReducedAlgorithm::Auto},
     {"slsqp", ReducedAlgorithm::Slsqp},
     {"ccsaq", ReducedAlgorithm::Ccsaq},
     {"mma", ReducedAlgorithm::Mma},
@@ -152,7 +153,12 @@ bool NloptOptions::IsValid(std::string* why) const {
 SolveResult NloptSolver::DoSolve(const PartProblem& problem, const NloptOptions& nlopt_options) const {
   const Structure& part = problem.part;
   const SolveOptions& options = problem.options;
-  const NloptRun o = resolve(nlopt_options, options);
+  NloptRun o = resolve(nlopt_options, options);
+  // SLSQP's dense subproblem costs the cube of the variable count per
+  // iteration and cannot be interrupted, so larger parts take CCSAQ.
+  if (o.reduced_algorithm == ReducedAlgorithm::Auto)
+    o.reduced_algorithm = 3 * part.num_free_nodes() <= kLargestDenseSlsqpVariables ? ReducedAlgorithm::Slsqp
+                                                                                   : ReducedAlgorithm::Ccsaq;
   TraceRecorder recorder(options.time_limit_s);
   const PartAnswer answer = o.reduced ? solve_reduced(part, options, o, problem.initial_forces, recorder)
                                       : solve_full(part, options, o, recorder);

@@ -7,8 +7,10 @@
 // NLopt minimises |q - q0|^2 / L^2 over the positions alone subject to one
 // inequality, sqrt(R(q)) <= tau, R the QP's optimal residual (relative to F0)
 // with its gradient from the envelope theorem:
-//   varpro_algorithm  slsqp (NLopt's SLSQP), ccsaq, mma (the CCSA methods),
-//                     auglag-lbfgs (NLopt's AUGLAG around LD_LBFGS)
+//   varpro_algorithm  auto (default: slsqp up to kLargestDenseSlsqpVariables
+//                     position variables, ccsaq above), slsqp (NLopt's SLSQP,
+//                     dense), ccsaq, mma (the CCSA methods), auglag-lbfgs
+//                     (NLopt's AUGLAG around LD_LBFGS)
 //   varpro_rounds     NLopt runs at most, each with tau ten times smaller when
 //                     the verification rejected the previous one (4)
 //
@@ -58,12 +60,17 @@ namespace tensegrity {
 // Largest L-BFGS / TNEWTON vector storage an option may ask for.
 inline constexpr int kLargestLbfgsMemory = 1000;
 
+// varpro_algorithm=auto uses SLSQP up to this many position variables: beyond
+// it one SLSQP iteration (dense, cubic in the variables) can outlast a time
+// limit, which NLopt checks only between evaluations.
+inline constexpr int kLargestDenseSlsqpVariables = 600;
+
 // Most NLopt runs of formulation=varpro an option may ask for.
 inline constexpr int kLargestVarproRounds = 100;
 
 struct NloptOptions {
   std::string formulation = "varpro";  // varpro | full
-  std::string varpro_algorithm = "slsqp";  // see above
+  std::string varpro_algorithm = "auto";  // see above
   int varpro_rounds = 4;
   std::string algorithm = "al-lbfgs";  // formulation=full, see above
   double ftol_rel = 1e-15;             // NLopt stopping tolerances of each NLopt run
