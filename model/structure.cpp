@@ -58,6 +58,15 @@ Eigen::Matrix3Xd Structure::gravity_loads() const {
   return loads;
 }
 
+double Structure::max_free_node_weight() const {
+  if (!has_gravity()) return 0.0;
+  const Eigen::Matrix3Xd loads = gravity_loads();
+  double worst = 0.0;
+  for (int i = 0; i < num_nodes(); ++i)
+    if (!fixed[i]) worst = std::max(worst, loads.col(i).norm());
+  return worst;
+}
+
 double Structure::mean_element_length() const {
   if (elements.empty()) return 0.0;
   double total = 0.0;

@@ -42,6 +42,8 @@ struct Structure {
   Eigen::VectorXd lumped_mass() const;
   // Gravity load m_i * g on every node, 3 x n (N). Zero without gravity.
   Eigen::Matrix3Xd gravity_loads() const;
+  // The largest gravity load |m_i g| on a free node (N); 0 without gravity.
+  double max_free_node_weight() const;
   // Mean element length (m): the length scale used for relative tolerances.
   double mean_element_length() const;
 

@@ -18,16 +18,6 @@ namespace {
 
 constexpr int kLargestNewtonIterations = 100000;
 
-// The largest gravity load m_i |g| on a free node (0 without gravity).
-double max_free_node_weight(const Structure& s) {
-  if (!s.has_gravity()) return 0.0;
-  const Eigen::Matrix3Xd loads = s.gravity_loads();
-  double worst = 0.0;
-  for (int i = 0; i < s.num_nodes(); ++i)
-    if (!s.fixed[i]) worst = std::max(worst, loads.col(i).norm());
-  return worst;
-}
-
 std::string polish_name(Status s) {
   switch (s) {
     case Status::MaxIterations: return "max_iterations";
@@ -140,7 +130,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // The contract asks |f_i| <= tolerance * load scale (the largest free-node
   // weight under gravity, else max |sigma| >= F0); the Newton test bounds
   // |f / F0|_inf, a tenth of that for the three components of a node.
-  const double max_free_weight = max_free_node_weight(part);
+  const double max_free_weight = part.max_free_node_weight();
   const double load_over_force =
       max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
   InteriorNewtonSettings settings;

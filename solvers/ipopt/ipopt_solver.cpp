@@ -23,17 +23,6 @@
 namespace tensegrity {
 namespace {
 
-// The largest gravity load m_i |g| on a free node (0 without gravity): the
-// contract's load scale when positive.
-double max_free_node_weight(const Structure& s) {
-  if (!s.has_gravity()) return 0.0;
-  const Eigen::Matrix3Xd loads = s.gravity_loads();
-  double worst = 0.0;
-  for (int i = 0; i < s.num_nodes(); ++i)
-    if (!s.fixed[i]) worst = std::max(worst, loads.col(i).norm());
-  return worst;
-}
-
 // The project's own key among the native Ipopt options.
 constexpr const char* kStartKey = "start";
 constexpr const char* kPrestressKey = "prestress";
@@ -158,7 +147,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   TraceRecorder recorder(options.time_limit_s);
   SolveResult result;
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
-  const double max_free_weight = max_free_node_weight(part);
+  const double max_free_weight = part.max_free_node_weight();
 
   MinimalGeometryChangeNlp nlp(part, scale);
   Eigen::VectorXd sigma0;
