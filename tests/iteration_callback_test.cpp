@@ -65,8 +65,12 @@ TEST(IterationCallback, PartsAreNumberedAndTimesCountFromTheStartOfTheSolve) {
     EXPECT_EQ(seen[i].num_parts, 2);
     if (seen[i].part == 1 && first_of_part_1 < 0) first_of_part_1 = static_cast<int>(i);
     // Parts run one after the other, and so do their records.
-    if (first_of_part_1 >= 0) EXPECT_EQ(seen[i].part, 1);
-    if (i > 0) EXPECT_GE(seen[i].point.seconds, seen[i - 1].point.seconds);
+    if (first_of_part_1 >= 0) {
+      EXPECT_EQ(seen[i].part, 1);
+    }
+    if (i > 0) {
+      EXPECT_GE(seen[i].point.seconds, seen[i - 1].point.seconds);
+    }
     EXPECT_DOUBLE_EQ(seen[i].point.seconds, r.trace[i].seconds);
   }
   ASSERT_GT(first_of_part_1, 1);
