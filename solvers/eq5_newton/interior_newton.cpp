@@ -169,7 +169,8 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   evaluate(problem, y, here);
   Eigen::VectorXd lambda = Eigen::VectorXd::Zero(mc);
   Eigen::VectorXd v = mu * here.d.cwiseInverse();
-  Eigen::VectorXd g, rd, rhs(n + mc), solution, dy, dv, lambda_plus, sigma_diag, rhs_soc(n + mc), soc, y_trial, y_soc, corrector;
+  Eigen::VectorXd g, rd, rhs(n + mc), solution, dy, dv, lambda_plus, sigma_diag, rhs_soc(n + mc), soc, y_trial, y_soc, corrector,
+      ds_affine(m), dv_affine(m);  // sized once: the loop assigns into them
   problem.gradient(y, g);
   const Eigen::SparseMatrix<double>* J = &problem.jacobian(y);
   KktSystem kkt(problem.hessian(y, lambda), *J, nq);
@@ -245,8 +246,9 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       rhs.head(n) = -g;
       rhs.tail(mc) = -here.c;
       kkt.solve(rhs, solution);
-      const Eigen::VectorXd ds = S.cwiseProduct(solution.segment(nq, m));
-      const Eigen::VectorXd dv_affine = -v - v.cwiseQuotient(here.d).cwiseProduct(ds);
+      ds_affine = S.cwiseProduct(solution.segment(nq, m));
+      dv_affine = -v - v.cwiseQuotient(here.d).cwiseProduct(ds_affine);
+      const Eigen::VectorXd& ds = ds_affine;
       double alpha_p = 1.0, alpha_d = 1.0;
       for (int e = 0; e < m; ++e) {
         if (ds[e] < 0.0) alpha_p = std::min(alpha_p, -here.d[e] / ds[e]);
