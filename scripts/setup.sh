@@ -16,7 +16,7 @@ packages=(
   libyaml-cpp-dev               # NTRT YAML structures (import, export)
   libmujoco-dev                 # MuJoCo: the suite simulates the MJCF export
   gnuplot-nox                   # benchmark plots
-  clang libclang-rt-14-dev      # sanitizer and fuzzer builds
+  clang libclang-rt-14-dev lld  # sanitizer and fuzzer builds (lld links them)
   python3-jsonschema            # the JSON Schema test of docs/schemas/
   libcpp-httplib-dev            # HTTP server of `tensegrity serve`
   chromium                      # the web app's browser test (playwright-core drives it)
