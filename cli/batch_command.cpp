@@ -118,55 +118,13 @@ ReadableScenes read_scenes(const std::vector<std::string>& files) {
   return r;
 }
 
-// How far the solves of one run are, on standard error: a status line
-// rewritten in place on a terminal, else a line at every tenth of the jobs.
-class BatchProgress {
- public:
-  BatchProgress(bool enabled, std::size_t total)
-      : enabled_(enabled), on_terminal_(stderr_is_terminal()), line_(enabled && on_terminal_), total_(total) {}
-
-  SolveJobsObserver observer() {
-    SolveJobsObserver o;
-    o.on_job_end = [this](const SolveJobResult& r) { job_ended(r.status == Status::Converged); };
-    o.on_tick = [this] {
-      if (line_.due()) line_.show(text(false).c_str());
-    };
-    return o;
-  }
-  // Ends a shown status line with a newline, so that the table starts a line of its own.
-  void finish() { line_.finish(); }
-
- private:
-  void job_ended(bool converged) {
-    ++done_;
-    if (!converged) ++failed_;
-    if (!enabled_) return;
-    if (on_terminal_) {
-      if (line_.due() || (done_ == total_ && line_.shown())) line_.show(text(false).c_str());
-      return;
-    }
-    const int tenth = static_cast<int>(10 * done_ / total_);
-    if (tenth > last_tenth_) {
-      last_tenth_ = tenth;
-      std::fprintf(stderr, "%s\n", text(true).c_str());
-      std::fflush(stderr);
-    }
-  }
-
-  std::string text(bool with_percent) const {
-    char percent[16] = "";
-    if (with_percent) std::snprintf(percent, sizeof percent, " (%d %%)", static_cast<int>(100 * done_ / total_));
-    char t[160];
-    std::snprintf(t, sizeof t, "batch: %zu/%zu solves done%s, %zu failed, %.1f s", done_, total_, percent, failed_,
-                  line_.elapsed());
-    return t;
-  }
-
-  bool enabled_, on_terminal_;
-  ProgressLine line_;
-  std::size_t total_, done_ = 0, failed_ = 0;
-  int last_tenth_ = 0;
-};
+// The status line or tenth lines of one run (cli/progress.hpp), fed by the worker pool.
+SolveJobsObserver batch_progress_observer(JobsProgress& progress) {
+  SolveJobsObserver o;
+  o.on_job_end = [&progress](const SolveJobResult& r) { progress.job_ended(r.status != Status::Converged); };
+  o.on_tick = [&progress] { progress.tick(); };
+  return o;
+}
 
 }  // namespace
 
@@ -252,13 +210,13 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
         SolveJobSettings one = settings;
         one.workers = 1;
         one.write_files = false;
-        BatchProgress progress(!args->quiet, jobs.size());
-        serial = run_solve_jobs(jobs, one, progress.observer());
+        JobsProgress progress(!args->quiet, "batch", "failed", jobs.size());
+        serial = run_solve_jobs(jobs, one, batch_progress_observer(progress));
         progress.finish();
       }
       if (!args->quiet) std::cerr << "batch: " << what << ", " << args->jobs << " jobs...\n";
-      BatchProgress progress(!args->quiet, jobs.size());
-      const SolveJobsRun parallel = run_solve_jobs(jobs, settings, progress.observer());
+      JobsProgress progress(!args->quiet, "batch", "failed", jobs.size());
+      const SolveJobsRun parallel = run_solve_jobs(jobs, settings, batch_progress_observer(progress));
       progress.finish();
 
       BatchReport report;

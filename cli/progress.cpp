@@ -56,4 +56,43 @@ void ProgressLine::finish(const char* final_text) {
   width_ = 0;
 }
 
+JobsProgress::JobsProgress(bool enabled, const char* command, const char* failures, std::size_t total,
+                           std::size_t done)
+    : enabled_(enabled),
+      on_terminal_(stderr_is_terminal()),
+      command_(command),
+      failures_(failures),
+      line_(enabled && on_terminal_),
+      total_(total),
+      done_(done) {}
+
+void JobsProgress::job_ended(bool failed) {
+  ++done_;
+  if (failed) ++failed_;
+  if (!enabled_ || total_ == 0) return;
+  if (on_terminal_) {
+    if (line_.due() || (done_ == total_ && line_.shown())) line_.show(text(false).c_str());
+    return;
+  }
+  const int tenth = static_cast<int>(10 * done_ / total_);
+  if (tenth > last_tenth_) {
+    last_tenth_ = tenth;
+    std::fprintf(stderr, "%s\n", text(true).c_str());
+    std::fflush(stderr);
+  }
+}
+
+void JobsProgress::tick() {
+  if (line_.due()) line_.show(text(false).c_str());
+}
+
+std::string JobsProgress::text(bool with_percent) const {
+  char percent[24] = "";
+  if (with_percent) std::snprintf(percent, sizeof percent, " (%d %%)", static_cast<int>(100 * done_ / total_));
+  char t[256];
+  std::snprintf(t, sizeof t, "%s: %zu/%zu solves done%s, %zu %s, %.1f s", command_, done_, total_, percent, failed_,
+                failures_, line_.elapsed());
+  return t;
+}
+
 }  // namespace tensegrity::cli
