@@ -109,11 +109,10 @@ StressReport run_stress_test(const StressTestOptions& options) {
     return j.dump();
   };
 
-  // Fills a trial from its worker's answer, or from how the worker ended.
-  auto record = [&](std::size_t job, const JobOutcome& o) {
+  // Fills trial `t` of `job` from its worker's answer, or from how the worker ended.
+  auto record = [&](std::size_t job, const JobOutcome& o, StressTrial& t) {
     const std::size_t k = job_trial[job];
     const StressCase& c = cases[k / solvers.size()];
-    StressTrial& t = report.trials[k];
     t.wall_seconds = o.wall_seconds;
     if (o.end == JobEnd::Finished) {
       const nlohmann::json j = nlohmann::json::parse(o.result);
@@ -146,20 +145,27 @@ StressReport run_stress_test(const StressTestOptions& options) {
   pool.workers = options.jobs;
   pool.kill_after_s = overrun_s;
   const std::vector<std::size_t> order = longest_first(cost);
+  const StressObserver& observer = options.observer;
+  pool.on_tick = observer.on_tick;
+  auto failed = [](const StressTrial& t) { return t.status != Status::Converged || !t.verified || !t.finite; };
   if (options.measure_speedup && options.jobs > 1) {
     ProcessPoolOptions one = pool;
     one.workers = 1;
+    // The trials' numbers come from the parallel pass; this one only counts failures for the display.
+    one.on_job_end = [&](std::size_t job, const JobOutcome& o) {
+      StressTrial t = report.trials[job_trial[job]];
+      record(job, o, t);
+      if (observer.on_trial_end) observer.on_trial_end(failed(t));
+    };
+    if (observer.on_pass_start) observer.on_pass_start(total, total - job_trial.size(), 1, true);
     report.serial_wall_seconds = run_in_worker_processes(job_trial.size(), order, solve_trial, one).wall_seconds;
   }
-  int ended = static_cast<int>(total - job_trial.size()), failures = 0;
   pool.on_job_end = [&](std::size_t job, const JobOutcome& o) {
-    record(job, o);
-    const StressTrial& t = report.trials[job_trial[job]];
-    if (t.status != Status::Converged || !t.verified || !t.finite) ++failures;
-    ++ended;
-    if (options.progress) options.progress(ended, static_cast<int>(total), failures);
+    StressTrial& t = report.trials[job_trial[job]];
+    record(job, o, t);
+    if (observer.on_trial_end) observer.on_trial_end(failed(t));
   };
-  if (options.progress) options.progress(ended, static_cast<int>(total), failures);
+  if (observer.on_pass_start) observer.on_pass_start(total, total - job_trial.size(), options.jobs, false);
   const ProcessPoolRun run = run_in_worker_processes(job_trial.size(), order, solve_trial, pool);
   report.cpu_seconds = run.cpu_seconds;
   for (const JobOutcome& o : run.outcomes) report.sum_job_wall_seconds += o.wall_seconds;

@@ -21,6 +21,18 @@
 
 namespace tensegrity::cli {
 
+// What the coordinating process tells while trials run.
+struct StressObserver {
+  // Before each pass over the trials: trials in all, how many of them are
+  // not run (rejected inputs), worker processes, and whether this is the
+  // one-worker pass that measure_speedup runs first.
+  std::function<void(std::size_t trials, std::size_t not_run, int workers, bool speedup_reference)> on_pass_start;
+  // A trial ended; `failed`: it did not converge, verify or stay finite.
+  std::function<void(bool failed)> on_trial_end;
+  // While waiting for trials, a few times per second.
+  std::function<void()> on_tick;
+};
+
 struct StressTestOptions {
   std::vector<std::string> scenes;    // names or groups; empty = all
   std::vector<std::string> solvers;   // empty = every registered backend
@@ -41,8 +53,8 @@ struct StressTestOptions {
   // verify is written there as <scene>_<family>_<level>_t<trial>_<solver>.scene.json
   // (to reproduce it with `tensegrity solve`).
   std::string failures_dir;
-  // Called by the coordinating process: trials done, total, failures so far.
-  std::function<void(int, int, int)> progress;
+  // Called by the coordinating process, for a progress display.
+  StressObserver observer;
 };
 
 struct StressTrial {

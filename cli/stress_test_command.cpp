@@ -1,13 +1,14 @@
 // tensegrity stress-test [--scenes ...] [--solvers ...] [--families ...] [--trials N] [--seed S]
 //                        [--jobs J] [--time-limit S] [--tol T] [--data DIR] [--scene FILE]...
-//                        [--no-times] [--measure-speedup] --out|--json REPORT.json
+//                        [--no-times] [--measure-speedup] [--quiet] --out|--json REPORT.json
 // Seeded families of perturbed benchmark scenes and characters, every chosen
 // backend on each, results re-verified and summarised (cli/stress_test.hpp):
 // the JSON report to a file (or standard output), a table per backend to
-// standard output (standard error when the report goes there). Exit status:
-// 0 clean, 1 when a result broke a rule or a data file was skipped, 2 bad usage.
-#include <unistd.h>
-
+// standard output (standard error when the report goes there). On standard
+// error, as for `batch`: a line naming the run, then a status line on a
+// terminal (cli/progress.hpp), else a line at every tenth of the trials; none
+// with --quiet. Exit status: 0 clean, 1 when a result broke a rule or a data
+// file was skipped, 2 bad usage.
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
 #include "cli/process_pool.hpp"
+#include "cli/progress.hpp"
 #include "cli/stress_test.hpp"
 #include "model/errors.hpp"
 #include "model/json_text.hpp"
@@ -59,21 +61,33 @@ std::string find_data_dir(const std::string& given) {
   return "";
 }
 
-void show_progress(int done, int total, int failures, bool tty) {
-  static int last_tenth = -1;
-  if (tty) {
-    std::fprintf(stderr, "\rstress-test: %d/%d solves (%.1f %%), %d not converged or not verified   ", done,
-                 total, total > 0 ? 100.0 * done / total : 100.0, failures);
-    if (done == total) std::fputc('\n', stderr);
-  } else {
-    const int tenth = total > 0 ? 10 * done / total : 10;
-    if (tenth != last_tenth) {
-      std::fprintf(stderr, "stress-test: %d/%d solves, %d not converged or not verified\n", done, total, failures);
-      last_tenth = tenth;
-    }
+// The naming line of each pass, then its status line or tenth lines
+// (cli/progress.hpp), as in `batch`.
+class StressProgress {
+ public:
+  StressObserver observer() {
+    StressObserver o;
+    o.on_pass_start = [this](std::size_t trials, std::size_t not_run, int workers, bool speedup_reference) {
+      finish();
+      std::string what = std::to_string(trials) + " solves";
+      if (not_run > 0) what += " (" + std::to_string(not_run) + " rejected inputs, not run)";
+      std::fprintf(stderr, "stress-test: %s, %d job%s%s...\n", what.c_str(), workers, workers == 1 ? "" : "s",
+                   speedup_reference ? " (for the speed-up)" : "");
+      std::fflush(stderr);
+      line_ = std::make_unique<JobsProgress>(true, "stress-test", "not converged or not verified", trials, not_run);
+    };
+    o.on_trial_end = [this](bool failed) { line_->job_ended(failed); };
+    o.on_tick = [this] { line_->tick(); };
+    return o;
   }
-  std::fflush(stderr);
-}
+  // Ends a shown status line, so that the table and summary start lines of their own.
+  void finish() {
+    if (line_) line_->finish();
+  }
+
+ private:
+  std::unique_ptr<JobsProgress> line_;
+};
 
 }  // namespace
 
@@ -99,7 +113,9 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--save-failures", args->failures_dir,
                   "Write the scene of every failed trial into this (existing) folder, to reproduce it");
   cmd->add_flag("--no-times", args->no_times, "Leave timings out, so equal options give a bit-identical report");
-  cmd->add_flag("--quiet", args->quiet, "No progress display");
+  cmd->add_flag("--quiet", args->quiet,
+                "No progress on stderr and no summary unless the run failed; with --out - also no table then "
+                "(errors still print)");
   cmd->add_flag("--measure-speedup", args->measure_speedup,
                 "First solve everything with one worker, then report serial/parallel wall time");
   cmd->add_option("--out,--json", args->out,
@@ -127,22 +143,24 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
           throw InputError(args->failures_dir, "--save-failures", "not a directory");
         o.failures_dir = args->failures_dir;
       }
-      if (!args->quiet) {
-        const bool tty = ::isatty(STDERR_FILENO) != 0;
-        o.progress = [tty](int done, int total, int failures) { show_progress(done, total, failures, tty); };
-      }
+      StressProgress progress;
+      if (!args->quiet) o.observer = progress.observer();
       const StressReport report = run_stress_test(o);
+      progress.finish();
       write_text_file_atomically(args->out, to_json_text(stress_report_to_json(report)) + "\n");
-      print_stress_table(report, args->out == "-" ? stderr : stdout);
       int bad = 0;
       for (const StressTrial& t : report.trials)
         if (!t.rejected && (!t.finite || t.overran || t.crashed || (t.status == Status::Converged && !t.verified)))
           ++bad;
-      std::cerr << "stress-test: " << report.trials.size() << " solves; " << bad
-                << " with a non-finite number, an overrun, a crashed worker or a converged result that does not "
-                   "verify\n";
+      const bool clean = bad == 0 && report.skipped.empty();
+      // As in `batch`: with --quiet the table on standard error (--out -) and the summary only for a run that failed.
+      if (args->out != "-" || !args->quiet || !clean) print_stress_table(report, args->out == "-" ? stderr : stdout);
+      if (!args->quiet || !clean)
+        std::cerr << "stress-test: " << report.trials.size() << " solves; " << bad
+                  << " with a non-finite number, an overrun, a crashed worker or a converged result that does not "
+                     "verify\n";
       // As in `batch`: skipped files make the run incomplete, but it has output, so 1 and not 2.
-      return bad == 0 && report.skipped.empty() ? 0 : 1;
+      return clean ? 0 : 1;
     };
   });
 }

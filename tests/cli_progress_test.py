@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Progress of `tensegrity solve`, `simulate` and `batch` on standard error (docs/USER-GUIDE.md).
+"""Progress of `tensegrity solve`, `simulate`, `batch` and `stress-test` on standard error (docs/USER-GUIDE.md).
 
 On a terminal (a pseudo-terminal here) a solve shows one status line,
 rewritten in place with a carriage return: iteration, relative residual and
@@ -7,7 +7,8 @@ seconds, ending with the last iteration record and a newline before the
 summary. With --quiet, or when standard error is not a terminal, no status
 line appears. TENSEGRITY_PROGRESS_AFTER=0 drops the two-second delay, so the
 test does not depend on how long the solve takes on this machine; the batch
-check with the default delay uses a job that runs until its time limit.
+and stress-test checks with the default delay use jobs that run until their
+time limit.
 
     /usr/bin/python3 tests/cli_progress_test.py --binary build/tensegrity --source .
 
@@ -33,6 +34,10 @@ SIMULATE_STATUS = re.compile(r"simulate: step (\d+)/(\d+), t = ([0-9.]+) s, ([0-
 SIMULATE_TENTH = re.compile(r"simulate: step (\d+)/(\d+) \((\d+) %\), t = ([0-9.]+) s")
 BATCH_STATUS = re.compile(r"batch: (\d+)/(\d+) solves done, (\d+) failed, ([0-9.]+) s")
 BATCH_TENTH = re.compile(r"batch: (\d+)/(\d+) solves done \((\d+) %\), (\d+) failed, ([0-9.]+) s")
+STRESS_STATUS = re.compile(r"stress-test: (\d+)/(\d+) solves done, (\d+) not converged or not verified, ([0-9.]+) s")
+STRESS_TENTH = re.compile(
+    r"stress-test: (\d+)/(\d+) solves done \((\d+) %\), (\d+) not converged or not verified, ([0-9.]+) s")
+STRESS_SUMMARY = re.compile(r"stress-test: (\d+) solves; (\d+) with a non-finite number")
 TIME_LIMIT = 300  # s, against a hang
 
 failures = []
@@ -267,6 +272,101 @@ def check_batch(binary, source, work):
     check(status == 1 and err == "", "batch --quiet prints nothing on a terminal", repr(err))
 
 
+def stress_failures(report):
+    """The report's failures: trials that did not converge, verify or stay finite, what the status line counts."""
+    return len(json.loads(report.read_text())["failures"])
+
+
+def check_stress_test(binary, source, work):
+    data = str(source / "data")
+    # Six trials (the six noise levels of the 3-prism), each converging in milliseconds.
+    fast = [binary, "stress-test", "--scenes", "prism-3", "--families", "noise", "--trials", "1", "--solvers",
+            "alternating-gn", "--jobs", "2", "--no-times", "--data", data, "--out"]
+
+    # Not a terminal: the line naming the run, a line at every tenth of the
+    # trials (each of the six ends a new tenth), the summary; no status line.
+    report = work / "stress-pipe.json"
+    status, err = run_on_pipe(fast + [str(report)], 0)
+    check(status == 0, f"stress-test without a terminal exits 0, got {status}", err)
+    check(stress_failures(report) == 0, "the six fast stress trials converge and verify")
+    tenths = STRESS_TENTH.findall(err)
+    check([(t[0], t[1], t[2], t[3]) for t in tenths] ==
+          [(str(k), "6", str(100 * k // 6), "0") for k in range(1, 7)],
+          "stress-test without a terminal reports 1/6 (16 %), 2/6 (33 %), ..., 6/6 (100 %), 0 not converged", err)
+    check(err.startswith("stress-test: 6 solves, 2 jobs...\n"), "stress-test names its run first", err)
+    check(STRESS_SUMMARY.findall(err) == [("6", "0")], "stress-test ends with its summary: 6 solves, 0 bad", err)
+    check(not STRESS_STATUS.search(err) and "\r" not in err and err.count("\n") == 8,
+          "stress-test without a terminal: the run's line, six tenth lines and the summary, no status line", err)
+
+    # The report does not depend on where progress goes: byte-identical on a
+    # terminal, with --quiet and on a pipe (--no-times).
+    quiet_report = work / "stress-quiet.json"
+    status, err = run_on_pipe(fast + [str(quiet_report), "--quiet"], 0)
+    check(status == 0 and err == "", "stress-test --quiet without a terminal prints nothing", err)
+    terminal_report = work / "stress-terminal.json"
+    status, err = run_on_terminal(fast + [str(terminal_report)], 0)
+    check(status == 0, f"stress-test on a terminal exits 0, got {status}", err)
+    check(report.read_bytes() == quiet_report.read_bytes() == terminal_report.read_bytes(),
+          "the --no-times report is the same on a pipe, with --quiet and on a terminal")
+
+    # A terminal, no delay: the status line, rewritten in place, last at 6/6.
+    shown = STRESS_STATUS.findall(err)
+    check(len(shown) >= 1 and shown[-1][:3] == ("6", "6", "0"), "stress-test's status line ends at 6/6, 0 not converged",
+          repr(err))
+    check("\r" in err and not STRESS_TENTH.search(err), "stress-test on a terminal: rewritten in place, no tenth lines",
+          repr(err))
+    check(re.search(r"\r[^\r\n]*6/6 solves done[^\r\n]*\r?\nstress-test: 6 solves; ", err) is not None,
+          "the summary follows the status line on a new line", repr(err))
+
+    # The default delay of 2 s: a run this short shows no status line.
+    status, err = run_on_terminal(fast + [str(terminal_report)], None)
+    check(status == 0 and not STRESS_STATUS.search(err) and "\r" not in err.replace("\r\n", "\n"),
+          "a short stress-test shows no status line on a terminal", repr(err))
+    check(err.replace("\r\n", "\n").count("\n") == 2, "a short stress-test: the run's line and the summary", repr(err))
+
+    # --measure-speedup: the one-worker pass first, named and counted the same way.
+    status, err = run_on_pipe(fast + [str(work / "stress-speedup.json"), "--measure-speedup"], 0)
+    check(status == 0, f"stress-test --measure-speedup exits 0, got {status}", err)
+    names = re.findall(r"stress-test: 6 solves, (1 job \(for the speed-up\)|2 jobs)\.\.\.", err)
+    check(names == ["1 job (for the speed-up)", "2 jobs"], "--measure-speedup names both passes", err)
+    check([t[0] for t in STRESS_TENTH.findall(err)] == [str(k) for k in range(1, 7)] * 2,
+          "--measure-speedup: tenth lines for both passes", err)
+
+    # The default delay with a run longer than 2 s: the faithful scheme cannot
+    # finish the 80-strut tower (near-parallel, three levels) in 1.2 s, so each
+    # of the three trials ends time_limit, one after the other.
+    slow_report = work / "stress-slow.json"
+    slow = [binary, "stress-test", "--scenes", "tower-80s-500c", "--families", "near-parallel", "--trials", "1",
+            "--solvers", "alternating", "--time-limit", "1.2", "--jobs", "1", "--data", data, "--out",
+            str(slow_report)]
+    status, err = run_on_terminal(slow, None)
+    check(status == 0, f"the slow stress-test exits 0 (time_limit is no broken rule), got {status}", err)
+    j = json.loads(slow_report.read_text())
+    wall = j["totals"]["wall_seconds"]
+    check(wall > 2.5, f"the slow stress-test runs longer than the 2 s delay (took {wall} s)")
+    failed = stress_failures(slow_report)
+    check(failed >= 1, f"the tower trials do not converge in 1.2 s ({failed} of 3 not converged)")
+    shown = STRESS_STATUS.findall(err)
+    check(len(shown) >= 1 and shown[-1][:3] == ("3", "3", str(failed)),
+          f"stress-test's status line after 2 s ends at 3/3, {failed} not converged", repr(err))
+    check(all(float(s[3]) >= 2.0 for s in shown), "no stress-test status line before 2 s", repr(err))
+    done = [int(s[0]) for s in shown]
+    check(done == sorted(done), f"stress trials done never go back: {done}")
+    check(len(shown) >= 2, f"the time on the status line moves while a trial runs ({len(shown)} updates)", repr(err))
+    check(len(shown) <= 2 + 4 * wall, f"{len(shown)} stress-test updates in {wall} s is more than 4 per second")
+    check(re.search(r"\r\nstress-test: 3 solves; 0 with", err) is not None,
+          "the slow run's summary starts a line of its own", repr(err))
+    # --quiet: nothing on the terminal.
+    status, err = run_on_terminal(slow + ["--quiet"], None)
+    check(status == 0 and err == "", "stress-test --quiet prints nothing on a terminal", repr(err))
+    # Not a terminal: tenth lines only (1/3, 2/3, 3/3), never a status line.
+    status, err = run_on_pipe(slow, None)
+    check(status == 0, f"the slow stress-test on a pipe exits 0, got {status}", err)
+    check([(t[0], t[2]) for t in STRESS_TENTH.findall(err)] == [("1", "33"), ("2", "66"), ("3", "100")],
+          "the slow stress-test on a pipe reports 1/3 (33 %), 2/3 (66 %), 3/3 (100 %)", err)
+    check(not STRESS_STATUS.search(err) and "\r" not in err, "the slow stress-test on a pipe: no status line", err)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--binary", required=True)
@@ -281,6 +381,7 @@ def main():
         check_verbose(a.binary, scene, work)
         check_simulate(a.binary, source, work)
         check_batch(a.binary, source, work)
+        check_stress_test(a.binary, source, work)
     print(f"cli_progress: {len(failures)} failures")
     return 1 if failures else 0
 
