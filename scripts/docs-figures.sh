@@ -7,13 +7,15 @@
 #   stress-families.md  every perturbation family on the reference scenes
 #                  (stress-*.json: the raw reports)
 #   characters.md  the characters as built (struts, cables, nodes, mass), form-found
-#                  with the default backend, checked with --stability
+#                  with the default backend, checked with --stability, and
+#                  form-found by the faithful Algorithm 1 (alternating)
 #   relax.md       designed characters relaxed under gravity in four directions
 #   character-design.md  the characters designed (default cord), against the
 #                  constant-fraction baseline, and simulated (still, turned, dragged)
 #   duck-neck.md   suggest-link and actuation on the duck's neck; the duck's
 #                  stability under each cable model
 #   link-stiffness.md  face against edge links (link_stiffness_test's output)
+#   stress-characters.md  the faithful Algorithm 1 on the characters with node noise
 #   gravity-towers.md  the gravity tower family (compare_bench gravity-towers/),
 #                  every backend; gravity-towers.json is the raw output
 #   *.png          report.py's plots of the comparison and scaling runs
@@ -25,9 +27,10 @@
 # Environment: FIGURES_BUILD_DIR (default build), FIGURES_OUT (default
 # docs/figures), FIGURES_TIME_LIMIT (seconds per solve, default 10),
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
-# subset of: characters relax character_design duck_neck link_stiffness backends
-# stress_noise scaling stress_families ipopt_starts gravity_towers), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40;
-# the whole family is 10,20,40,80,160).
+# subset of: characters relax character_design duck_neck link_stiffness
+# character_stress backends stress_noise scaling stress_families ipopt_starts
+# gravity_towers), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# family is 10,20,40,80,160).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${FIGURES_BUILD_DIR:-build}
@@ -598,6 +601,21 @@ link_stiffness() {
   } >>"$out/link-stiffness.md"
 }
 
+# --- 10. the faithful Algorithm 1 on the noisy characters ------------------------------
+character_stress() {
+  step "stress test: the faithful Algorithm 1 on the characters with node noise"
+  local cmd="$tg stress-test --families noise --trials 4 --time-limit 20 --jobs 1 --solvers alternating --scenes character --quiet --out stress-characters.json"
+  header "$out/stress-characters.md" "Stress test: the faithful Algorithm 1 on the noisy characters" "$cmd"
+  "$tg" stress-test --families noise --trials 4 --time-limit 20 --jobs 1 --solvers alternating --scenes character \
+    --quiet --out "$work/stress-characters.json"
+  {
+    echo "The three characters at the paper's counts, node noise 0.001 .. 0.3 of the median element"
+    echo "length, four trials per scene and level, at most 20 s per solve."
+    echo
+    stress_table "$work/stress-characters.json"
+  } >>"$out/stress-characters.md"
+}
+
 # --- ipopt: cold and warm start, MUMPS orderings ----------------------------------
 ipopt_starts() {
   step "ipopt-starts.md: start=scene vs start=alternating-gn vs alternating-gn; MUMPS orderings"
@@ -693,7 +711,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters relax character_design duck_neck link_stiffness backends stress_noise scaling stress_families ipopt_starts gravity_towers}; do
+for section in ${FIGURES_SECTIONS:-characters relax character_design duck_neck link_stiffness character_stress backends stress_noise scaling stress_families ipopt_starts gravity_towers}; do
   "$section"
 done
 step "done; figures in $out"
