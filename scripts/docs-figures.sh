@@ -254,7 +254,7 @@ characters() {
   step "characters: build, solve with the default backend, check --stability"
   mkdir -p "$work/chars/minimal"
   header "$out/characters.md" "The characters as built and form-found" \
-    "$tg build data/characters/NAME.character.json --out NAME.scene.json && $tg solve NAME.scene.json --out NAME.solution.json --quiet && $tg check NAME.scene.json NAME.solution.json --stability && $tg solve NAME.scene.json --solver alternating [--tol 1e-10] --trace NAME.csv"
+    "$tg build data/characters/NAME.character.json --out NAME.scene.json && $tg solve NAME.scene.json --out NAME.solution.json --quiet && $tg check NAME.scene.json NAME.solution.json --stability [--design NAME.design.json] && $tg solve NAME.scene.json --solver alternating [--tol 1e-10] --trace NAME.csv"
   local names="duck scorpion puppy minimal/duck minimal/scorpion" c rc
   for c in $names; do
     "$tg" build "data/characters/$c.character.json" --out "$work/chars/$c.scene.json" 2>/dev/null
@@ -263,6 +263,11 @@ characters() {
     "$tg" check "$work/chars/$c.scene.json" "$work/chars/$c.solution.json" --stability \
       >"$work/chars/$c.check.txt" 2>&1 || rc=$?
     echo "$rc" >"$work/chars/$c.check.rc"
+    rc=0
+    { "$tg" design "$work/chars/$c.scene.json" --out "$work/chars/$c.design.json" --quiet &&
+      "$tg" check "$work/chars/$c.scene.json" "$work/chars/$c.solution.json" --stability \
+        --design "$work/chars/$c.design.json"; } >"$work/chars/$c.check-design.txt" 2>&1 || rc=$?
+    echo "$rc" >"$work/chars/$c.check-design.rc"
     "$tg" solve "$work/chars/$c.scene.json" --solver alternating --trace "$work/chars/$c.alternating.csv" \
       --out "$work/chars/$c.alternating.json" --quiet || true
     "$tg" solve "$work/chars/$c.scene.json" --solver alternating --tol 1e-10 \
@@ -289,11 +294,12 @@ for c in names:
 print()
 print("Form finding with the default backend, then `check --stability` (exit 0 stable, 3 verified but")
 print("marginal or unstable, 1 not verified). Without `--design` the stability test models every")
-print("cable as a linear cord carrying its solution force at 10 % strain; the prestress column is")
-print("Connelly's test, which needs no cable model.")
+print("cable as a linear cord carrying its solution force at 10 % strain; with `--design` (made by")
+print("`design NAME.scene.json --out NAME.design.json`, the 2 mm cord) it takes the designed cords.")
+print("The prestress column is Connelly's test, which needs no cable model.")
 print()
-print("| character | backend | status | iterations | relative residual | geometry change | check | stability (cords at 10 %) | smallest eigenvalue (N/m) | prestress |")
-print("|---|---|---|---:|---:|---:|---|---|---:|---|")
+print("| character | backend | status | iterations | relative residual | geometry change | check | stability (cords at 10 %) | smallest eigenvalue (N/m) | with the design | prestress |")
+print("|---|---|---|---:|---:|---:|---|---|---:|---|---|")
 for c in names:
     sol = json.load(open(path(c, ".solution.json")))
     st = sol["stats"]
@@ -311,8 +317,10 @@ for c in names:
     eigenvalues = field("eigenvalues").split()
     smallest = f"{float(eigenvalues[0]):.3g}" if eigenvalues and eigenvalues[0] != "-" else "-"
     prestress = field("prestress").split(" (")[0]
+    designed = re.search(r"^stability\s+(\w+)", open(path(c, ".check-design.txt")).read(), re.M)
+    designed = f"{designed.group(1) if designed else 'no design'} (exit {open(path(c, '.check-design.rc')).read().strip()})"
     print(f"| {c} | {sol['solver']} | {sol['status']} | {st['iterations']} | {st['relative_residual']:.2g} "
-          f"| {1000 * st['geometry_change']:.3g} mm | {verdict} (exit {rc}) | {kind} | {smallest} | {prestress} |")
+          f"| {1000 * st['geometry_change']:.3g} mm | {verdict} (exit {rc}) | {kind} | {smallest} | {designed} | {prestress} |")
 print()
 print("The faithful Algorithm 1 (`--solver alternating`), at the default tolerance 1e-8 with its trace")
 print("(objective rises: outer iterations whose traced Eq. 4 objective exceeds the previous one by more")
