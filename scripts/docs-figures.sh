@@ -9,6 +9,7 @@
 #   characters.md  the characters as built (struts, cables, nodes, mass), form-found
 #                  with the default backend, checked with --stability, and
 #                  form-found by the faithful Algorithm 1 (alternating)
+#   blocks.md      every block of the characters alone, checked with --stability
 #   relax.md       designed characters relaxed under gravity in four directions
 #   character-design.md  the characters designed (default cord), against the
 #                  constant-fraction baseline, and simulated (still, turned, dragged)
@@ -27,7 +28,7 @@
 # Environment: FIGURES_BUILD_DIR (default build), FIGURES_OUT (default
 # docs/figures), FIGURES_TIME_LIMIT (seconds per solve, default 10),
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
-# subset of: characters relax character_design duck_neck link_stiffness
+# subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress backends stress_noise scaling stress_families ipopt_starts
 # gravity_towers), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160).
@@ -338,6 +339,68 @@ for c in names:
     print(f"| {c} | {sol['status']} | {sol.get('message', '-')} | {st['relative_residual']:.2g} | {1000 * st['geometry_change']:.3g} mm "
           f"| {rises} of {max(0, len(objective) - 1)} | {tight['status']}, {tight['stats']['iterations']}, "
           f"{tight['stats']['relative_residual']:.2g} |")
+print()
+EOF
+}
+
+# --- 5b. every block of the characters, alone ------------------------------------------
+blocks() {
+  step "blocks: every block type and tie count of the characters, alone, check --stability"
+  local w="$work/blocks"
+  mkdir -p "$w"
+  header "$out/blocks.md" "Every block of the characters, alone" \
+    "$tg build B.character.json --out B.scene.json && $tg solve B.scene.json --out B.solution.json --quiet && $tg check B.scene.json B.solution.json --stability"
+  # One character per distinct (template, ties) of the three characters: that block alone, scale 0.05, no gravity.
+  local b rc
+  for b in $("$py" - "$PWD/data" "$w" <<'EOF'
+import json, os, sys
+data, folder = sys.argv[1], sys.argv[2]
+seen = {}
+for c in ("duck", "scorpion", "puppy"):
+    for block in json.load(open(os.path.join(data, "characters", c + ".character.json")))["blocks"]:
+        key = (block["type"], block.get("ties", 0))
+        seen.setdefault(key, []).append(f"{c} {block['id']}")
+for (kind, ties), users in sorted(seen.items()):
+    name = f"{kind}-ties-{ties}"
+    character = {"format": "tensegrity-character", "version": 1, "name": name,
+                 "block_library": os.path.join(data, "blocks"), "gravity": [0, 0, 0],
+                 "blocks": [{"id": "b", "type": kind, "scale": 0.05, **({"ties": ties} if ties else {})}], "links": []}
+    json.dump(character, open(os.path.join(folder, name + ".character.json"), "w"), indent=1)
+    open(os.path.join(folder, name + ".users"), "w").write(", ".join(users))
+    print(name)
+EOF
+); do
+    "$tg" build "$w/$b.character.json" --out "$w/$b.scene.json" 2>/dev/null
+    "$tg" solve "$w/$b.scene.json" --out "$w/$b.solution.json" --quiet || true
+    rc=0
+    "$tg" check "$w/$b.scene.json" "$w/$b.solution.json" --stability >"$w/$b.check.txt" 2>&1 || rc=$?
+    echo "$rc" >"$w/$b.check.rc"
+  done
+  "$py" - "$w" >>"$out/blocks.md" <<'EOF'
+import glob, json, os, re, sys
+folder = sys.argv[1]
+print("Each distinct block (template and number of interior ties) of the duck, the scorpion and the")
+print("puppy, built alone as a one-block character (scale 0.05, no gravity), form-found with the default")
+print("backend and checked with `--stability` (cables as linear cords at 10 % strain; exit 0 = verified")
+print("and stable). Rigid-body modes are removed before the eigenvalues.")
+print()
+print("| block | ties | used by | struts | cables | relative residual | exit | stability | prestress |")
+print("|---|---:|---|---:|---:|---:|---:|---|---|")
+for path in sorted(glob.glob(os.path.join(folder, "*.check.txt"))):
+    name = os.path.basename(path)[: -len(".check.txt")]
+    kind, ties = name.rsplit("-ties-", 1)
+    scene = json.load(open(os.path.join(folder, name + ".scene.json")))
+    kinds = [e["kind"] for e in scene["elements"]]
+    sol = json.load(open(os.path.join(folder, name + ".solution.json")))
+    text = open(path).read()
+    rc = open(os.path.join(folder, name + ".check.rc")).read().strip()
+    stability = re.search(r"^stability\s+(.*?)(;|$)", text, re.M)
+    stability = stability.group(1) + (")" if "(" in stability.group(1) else "") if stability else "-"
+    prestress = re.search(r"^prestress\s+(.*?)( \(|$)", text, re.M)
+    users = open(os.path.join(folder, name + ".users")).read()
+    print(f"| {kind} | {ties} | {users} | {kinds.count('strut')} | {kinds.count('cable')} "
+          f"| {sol['stats']['relative_residual']:.2g} | {rc} | {stability.replace('|', chr(92) + '|')} "
+          f"| {prestress.group(1) if prestress else '-'} |")
 print()
 EOF
 }
@@ -719,7 +782,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters relax character_design duck_neck link_stiffness character_stress backends stress_noise scaling stress_families ipopt_starts gravity_towers}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress backends stress_noise scaling stress_families ipopt_starts gravity_towers}; do
   "$section"
 done
 step "done; figures in $out"
