@@ -6,8 +6,17 @@
 #   stress.md      the node-noise stress test on all 27 benchmark scenes
 #   stress-families.md  every perturbation family on the reference scenes
 #                  (stress-*.json: the raw reports)
-#   characters.md  the three characters as built (struts, cables, nodes, mass)
+#   characters.md  the characters as built (struts, cables, nodes, mass), form-found
+#                  with the default backend, checked with --stability, and
+#                  form-found by the faithful Algorithm 1 (alternating)
+#   blocks.md      every block of the characters alone, checked with --stability
 #   relax.md       designed characters relaxed under gravity in four directions
+#   character-design.md  the characters designed (default cord), against the
+#                  constant-fraction baseline, and simulated (still, turned, dragged)
+#   duck-neck.md   suggest-link and actuation on the duck's neck; the duck's
+#                  stability under each cable model
+#   link-stiffness.md  face against edge links (link_stiffness_test's output)
+#   stress-characters.md  the faithful Algorithm 1 on the characters with node noise
 #   gravity-towers.md  the gravity tower family (compare_bench gravity-towers/),
 #                  every backend; gravity-towers.json is the raw output
 #   *.png          report.py's plots of the comparison and scaling runs
@@ -19,9 +28,10 @@
 # Environment: FIGURES_BUILD_DIR (default build), FIGURES_OUT (default
 # docs/figures), FIGURES_TIME_LIMIT (seconds per solve, default 10),
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
-# subset of: characters relax backends stress_noise scaling stress_families
-# ipopt_starts gravity_towers), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40;
-# the whole family is 10,20,40,80,160).
+# subset of: characters blocks relax character_design duck_neck link_stiffness
+# character_stress backends stress_noise scaling stress_families ipopt_starts
+# gravity_towers), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# family is 10,20,40,80,160).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${FIGURES_BUILD_DIR:-build}
@@ -31,9 +41,9 @@ py=/usr/bin/python3
 export LC_ALL=C
 
 if [ "${FIGURES_NO_BUILD:-0}" != 1 ]; then
-  echo "== build (Release): tensegrity, compare_bench"
+  echo "== build (Release): tensegrity, compare_bench, link_stiffness_test"
   cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
-  cmake --build "$build" -j"$(nproc --all)" --target tensegrity compare_bench >/dev/null
+  cmake --build "$build" -j"$(nproc --all)" --target tensegrity compare_bench link_stiffness_test >/dev/null
 fi
 tg=$build/tensegrity
 cb=$build/bench/compare_bench
@@ -240,26 +250,157 @@ stress_families() {
   stress_table "$out/stress-all-families.json" >>"$out/stress-families.md"
 }
 
-# --- 5. the characters as built ---------------------------------------------------
+# --- 5. the characters as built and form-found ---------------------------------------
 characters() {
-  step "characters: build"
-  mkdir -p "$work/chars"
-  header "$out/characters.md" "The characters as built" "$tg build data/characters/NAME.character.json --out NAME.scene.json"
-  for c in duck scorpion puppy; do
+  step "characters: build, solve with the default backend, check --stability"
+  mkdir -p "$work/chars/minimal"
+  header "$out/characters.md" "The characters as built and form-found" \
+    "$tg build data/characters/NAME.character.json --out NAME.scene.json && $tg solve NAME.scene.json --out NAME.solution.json --quiet && $tg check NAME.scene.json NAME.solution.json --stability [--design NAME.design.json] && $tg solve NAME.scene.json --solver alternating [--tol 1e-10] --trace NAME.csv"
+  local names="duck scorpion puppy minimal/duck minimal/scorpion" c rc
+  for c in $names; do
     "$tg" build "data/characters/$c.character.json" --out "$work/chars/$c.scene.json" 2>/dev/null
+    "$tg" solve "$work/chars/$c.scene.json" --out "$work/chars/$c.solution.json" --quiet || true
+    rc=0
+    "$tg" check "$work/chars/$c.scene.json" "$work/chars/$c.solution.json" --stability \
+      >"$work/chars/$c.check.txt" 2>&1 || rc=$?
+    echo "$rc" >"$work/chars/$c.check.rc"
+    rc=0
+    { "$tg" design "$work/chars/$c.scene.json" --out "$work/chars/$c.design.json" --quiet &&
+      "$tg" check "$work/chars/$c.scene.json" "$work/chars/$c.solution.json" --stability \
+        --design "$work/chars/$c.design.json"; } >"$work/chars/$c.check-design.txt" 2>&1 || rc=$?
+    echo "$rc" >"$work/chars/$c.check-design.rc"
+    "$tg" solve "$work/chars/$c.scene.json" --solver alternating --trace "$work/chars/$c.alternating.csv" \
+      --out "$work/chars/$c.alternating.json" --quiet || true
+    "$tg" solve "$work/chars/$c.scene.json" --solver alternating --tol 1e-10 \
+      --out "$work/chars/$c.alternating-tight.json" --quiet || true
   done
-  "$py" - "$work/chars" >>"$out/characters.md" <<'EOF'
-import json, math, os, sys
+  "$py" - "$work/chars" $names >>"$out/characters.md" <<'EOF'
+import csv, json, math, os, re, sys
+folder, names = sys.argv[1], sys.argv[2:]
+def path(c, suffix):
+    return os.path.join(folder, c + suffix)
+print("`minimal/duck` and `minimal/scorpion` are the characters with the minimal block templates")
+print("(data/characters/minimal/).")
+print()
 print("| character | struts | cables | nodes (fixed) | mass | size (bounding-box diagonal) |")
 print("|---|---:|---:|---|---:|---:|")
-for c in ("duck", "scorpion", "puppy"):
-    s = json.load(open(os.path.join(sys.argv[1], c + ".scene.json")))
+for c in names:
+    s = json.load(open(path(c, ".scene.json")))
     kinds = [e["kind"] for e in s["elements"]]
     mass = sum(n.get("mass", 0.0) for n in s["nodes"]) + sum(e.get("mass", 0.0) for e in s["elements"])
     fixed = sum(1 for n in s["nodes"] if n.get("fixed", False))
     xs = [n["x"] for n in s["nodes"]]
     diag = math.dist([min(p[i] for p in xs) for i in range(3)], [max(p[i] for p in xs) for i in range(3)])
     print(f"| {c} | {kinds.count('strut')} | {kinds.count('cable')} | {len(xs)} ({fixed}) | {mass:.3f} kg | {diag:.2f} m |")
+print()
+print("Form finding with the default backend, then `check --stability` (exit 0 stable, 3 verified but")
+print("marginal or unstable, 1 not verified). Without `--design` the stability test models every")
+print("cable as a linear cord carrying its solution force at 10 % strain; with `--design` (made by")
+print("`design NAME.scene.json --out NAME.design.json`, the 2 mm cord) it takes the designed cords.")
+print("The prestress column is Connelly's test, which needs no cable model.")
+print()
+print("| character | backend | status | iterations | relative residual | geometry change | check | stability (cords at 10 %) | smallest eigenvalue (N/m) | with the design | prestress |")
+print("|---|---|---|---:|---:|---:|---|---|---:|---|---|")
+for c in names:
+    sol = json.load(open(path(c, ".solution.json")))
+    st = sol["stats"]
+    text = open(path(c, ".check.txt")).read()
+    rc = open(path(c, ".check.rc")).read().strip()
+    def field(key):
+        m = re.search(r"^" + key + r"\s+(.*)$", text, re.M)
+        return m.group(1).strip() if m else "-"
+    verdict = "verified" if re.search(r"^verified$", text, re.M) else "NOT verified"
+    stability = field("stability")
+    kind = stability.split(" (")[0]
+    modes = re.search(r"\((\d+) (negative stiffness|zero-stiffness) mode", stability)
+    if modes:
+        kind += f", {modes.group(1)} {'negative' if modes.group(2).startswith('negative') else 'zero'} mode(s)"
+    eigenvalues = field("eigenvalues").split()
+    smallest = f"{float(eigenvalues[0]):.3g}" if eigenvalues and eigenvalues[0] != "-" else "-"
+    prestress = field("prestress").split(" (")[0]
+    designed = re.search(r"^stability\s+(\w+)", open(path(c, ".check-design.txt")).read(), re.M)
+    designed = f"{designed.group(1) if designed else 'no design'} (exit {open(path(c, '.check-design.rc')).read().strip()})"
+    print(f"| {c} | {sol['solver']} | {sol['status']} | {st['iterations']} | {st['relative_residual']:.2g} "
+          f"| {1000 * st['geometry_change']:.3g} mm | {verdict} (exit {rc}) | {kind} | {smallest} | {designed} | {prestress} |")
+print()
+print("The faithful Algorithm 1 (`--solver alternating`), at the default tolerance 1e-8 with its trace")
+print("(objective rises: outer iterations whose traced Eq. 4 objective exceeds the previous one by more")
+print("than 1e-12 relative) and at `--tol 1e-10`:")
+print()
+print("| character | status | message | relative residual | geometry change | objective rises | at 1e-10: status, iterations, relative residual |")
+print("|---|---|---|---:|---:|---:|---|")
+for c in names:
+    sol = json.load(open(path(c, ".alternating.json")))
+    st = sol["stats"]
+    rows = list(csv.DictReader(open(path(c, ".alternating.csv"))))
+    objective = [float(r["objective"]) for r in rows if r.get("objective")]
+    rises = sum(1 for a, b in zip(objective, objective[1:]) if b > a + 1e-12 * abs(a))
+    tight = json.load(open(path(c, ".alternating-tight.json")))
+    print(f"| {c} | {sol['status']} | {sol.get('message', '-')} | {st['relative_residual']:.2g} | {1000 * st['geometry_change']:.3g} mm "
+          f"| {rises} of {max(0, len(objective) - 1)} | {tight['status']}, {tight['stats']['iterations']}, "
+          f"{tight['stats']['relative_residual']:.2g} |")
+print()
+EOF
+}
+
+# --- 5b. every block of the characters, alone ------------------------------------------
+blocks() {
+  step "blocks: every block type and tie count of the characters, alone, check --stability"
+  local w="$work/blocks"
+  mkdir -p "$w"
+  header "$out/blocks.md" "Every block of the characters, alone" \
+    "$tg build B.character.json --out B.scene.json && $tg solve B.scene.json --out B.solution.json --quiet && $tg check B.scene.json B.solution.json --stability"
+  # One character per distinct (template, ties) of the three characters: that block alone, scale 0.05, no gravity.
+  local b rc
+  for b in $("$py" - "$PWD/data" "$w" <<'EOF'
+import json, os, sys
+data, folder = sys.argv[1], sys.argv[2]
+seen = {}
+for c in ("duck", "scorpion", "puppy"):
+    for block in json.load(open(os.path.join(data, "characters", c + ".character.json")))["blocks"]:
+        key = (block["type"], block.get("ties", 0))
+        seen.setdefault(key, []).append(f"{c} {block['id']}")
+for (kind, ties), users in sorted(seen.items()):
+    name = f"{kind}-ties-{ties}"
+    character = {"format": "tensegrity-character", "version": 1, "name": name,
+                 "block_library": os.path.join(data, "blocks"), "gravity": [0, 0, 0],
+                 "blocks": [{"id": "b", "type": kind, "scale": 0.05, **({"ties": ties} if ties else {})}], "links": []}
+    json.dump(character, open(os.path.join(folder, name + ".character.json"), "w"), indent=1)
+    open(os.path.join(folder, name + ".users"), "w").write(", ".join(users))
+    print(name)
+EOF
+); do
+    "$tg" build "$w/$b.character.json" --out "$w/$b.scene.json" 2>/dev/null
+    "$tg" solve "$w/$b.scene.json" --out "$w/$b.solution.json" --quiet || true
+    rc=0
+    "$tg" check "$w/$b.scene.json" "$w/$b.solution.json" --stability >"$w/$b.check.txt" 2>&1 || rc=$?
+    echo "$rc" >"$w/$b.check.rc"
+  done
+  "$py" - "$w" >>"$out/blocks.md" <<'EOF'
+import glob, json, os, re, sys
+folder = sys.argv[1]
+print("Each distinct block (template and number of interior ties) of the duck, the scorpion and the")
+print("puppy, built alone as a one-block character (scale 0.05, no gravity), form-found with the default")
+print("backend and checked with `--stability` (cables as linear cords at 10 % strain; exit 0 = verified")
+print("and stable). Rigid-body modes are removed before the eigenvalues.")
+print()
+print("| block | ties | used by | struts | cables | relative residual | exit | stability | prestress |")
+print("|---|---:|---|---:|---:|---:|---:|---|---|")
+for path in sorted(glob.glob(os.path.join(folder, "*.check.txt"))):
+    name = os.path.basename(path)[: -len(".check.txt")]
+    kind, ties = name.rsplit("-ties-", 1)
+    scene = json.load(open(os.path.join(folder, name + ".scene.json")))
+    kinds = [e["kind"] for e in scene["elements"]]
+    sol = json.load(open(os.path.join(folder, name + ".solution.json")))
+    text = open(path).read()
+    rc = open(os.path.join(folder, name + ".check.rc")).read().strip()
+    stability = re.search(r"^stability\s+(.*?)(;|$)", text, re.M)
+    stability = stability.group(1) + (")" if "(" in stability.group(1) else "") if stability else "-"
+    prestress = re.search(r"^prestress\s+(.*?)( \(|$)", text, re.M)
+    users = open(os.path.join(folder, name + ".users")).read()
+    print(f"| {kind} | {ties} | {users} | {kinds.count('strut')} | {kinds.count('cable')} "
+          f"| {sol['stats']['relative_residual']:.2g} | {rc} | {stability.replace('|', chr(92) + '|')} "
+          f"| {prestress.group(1) if prestress else '-'} |")
 print()
 EOF
 }
@@ -311,6 +452,239 @@ EOF
       echo "$row" >>"$out/relax.md"
     done
   done
+}
+
+# --- 7. design and simulation of the characters ---------------------------------------
+character_design() {
+  step "characters: design (default cord), naive baseline, simulate"
+  mkdir -p "$work/cdesign"
+  header "$out/character-design.md" "The characters designed and simulated" \
+    "$tg design data/characters/C.character.json --out C.design.json --naive-fractions 0.5:0.98:25 && $tg simulate C.design.json --steps 60 [--gravity=9.81,0,0 --damping 2 --steps 120 | --drag NODE:x,y,z] --out C.jsonl --no-vtk --quiet"
+  local c d
+  for c in duck scorpion puppy; do
+    d="$work/cdesign/$c.design.json"
+    "$tg" design "data/characters/$c.character.json" --out "$d" --naive-fractions 0.5:0.98:25 \
+      >/dev/null 2>"$work/cdesign/$c.design.err"
+    "$tg" simulate "$d" --steps 60 --out "$work/cdesign/$c-still.jsonl" --no-vtk --quiet || true
+    "$tg" simulate "$d" --steps 120 --gravity=9.81,0,0 --damping 2 --out "$work/cdesign/$c-turned.jsonl" \
+      --no-vtk --quiet || true
+    # The drag: the free node farthest along +x (the front of the character) pulled 5 cm along +y.
+    local drag
+    drag=$("$py" - "$d" <<'EOF'
+import json, sys
+d = json.load(open(sys.argv[1]))
+free = [i for i, n in enumerate(d["nodes"]) if not n.get("fixed", False)]
+i = max(free, key=lambda k: d["positions"][k][0])
+x = d["positions"][i]
+print(f"{i}:{x[0]:.6f},{x[1] + 0.05:.6f},{x[2]:.6f}")
+EOF
+)
+    echo "$drag" >"$work/cdesign/$c.drag"
+    "$tg" simulate "$d" --steps 120 --drag "$drag" --damping 2 --out "$work/cdesign/$c-drag.jsonl" \
+      --no-vtk --quiet || true
+  done
+  "$py" - "$work/cdesign" >>"$out/character-design.md" <<'EOF'
+import json, math, os, re, statistics, sys
+folder = sys.argv[1]
+names = ("duck", "scorpion", "puppy")
+print("Design with the default cord (elastic-cord-2mm, synthetic) and target strain 0.3. \"Designed")
+print("settles\" and \"best naive\" are `--naive-fractions 0.5:0.98:25`: the design and the paper's")
+print("constant-fraction baseline (every rest length F times its length, 25 fractions F) settled")
+print("under gravity by `relax`; the largest node displacement from the designed shape.")
+print()
+print("| character | stiffness QP relative residual | cable strain | designed settles | best naive fraction | best naive settles | slack cables there |")
+print("|---|---:|---|---:|---:|---:|---:|")
+for c in names:
+    d = json.load(open(os.path.join(folder, c + ".design.json")))
+    err = open(os.path.join(folder, c + ".design.err")).read()
+    lo, hi = d["design"]["cable_strain_range"]
+    summary = re.search(r"designed settles ([\d.eg+-]+) mm .*best naive fraction ([\d.eg+-]+) settles ([\d.eg+-]+) mm "
+                        r"away \(([\d.eg+-]+) of the size\)", err)
+    best = re.search(r"naive F=" + re.escape(summary.group(2)) + r"\s+\S+\s+\S+ mm\s+\S+\s+(\d+)", err) if summary else None
+    if summary:
+        print(f"| {c} | {d['stats']['relative_residual']:.2g} | {100 * lo:.3g} % .. {100 * hi:.3g} % | {summary.group(1)} mm "
+              f"| {summary.group(2)} | {summary.group(3)} mm ({summary.group(4)} of the size) | {best.group(1) if best else '-'} |")
+    else:
+        print(f"| {c} | {d['stats']['relative_residual']:.2g} | {100 * lo:.3g} % .. {100 * hi:.3g} % | - | - | - | - |")
+print()
+print("Simulation (`simulate`, implicit Euler, dt 1/60 s): still = 60 steps under the design gravity;")
+print("turned = 120 steps with gravity along +x and damping 2/s; drag = 120 steps with damping 2/s, the")
+print("free node farthest along +x pulled towards a point 5 cm along +y of it (default drag stiffness).")
+print("Displacement: the largest node distance from the designed shape over all frames, and at the")
+print("last frame, over the bounding-box diagonal. Step time: median wall milliseconds per step")
+print("(the frames' `seconds`; read with the load average above).")
+print()
+print("| character | run | steps not converged | Newton iterations per step | largest displacement | at the last frame | median ms per step |")
+print("|---|---|---:|---:|---:|---:|---:|")
+for c in names:
+    d = json.load(open(os.path.join(folder, c + ".design.json")))
+    x0 = d["positions"]
+    size = math.dist([min(p[i] for p in x0) for i in range(3)], [max(p[i] for p in x0) for i in range(3)])
+    for run in ("still", "turned", "drag"):
+        label = run
+        if run == "drag":
+            label += " node " + open(os.path.join(folder, c + ".drag")).read().split(":")[0]
+        frames = [json.loads(line) for line in open(os.path.join(folder, f"{c}-{run}.jsonl")) if line.strip()]
+        steps = [f for f in frames if "converged" in f]
+        failed = sum(1 for f in steps if not f["converged"])
+        newton = sum(f["newton_iterations"] for f in steps) / max(1, len(steps))
+        disp = [max(math.dist(p, q) for p, q in zip(f["positions"], x0)) for f in frames]
+        ms = statistics.median(1000 * f["seconds"] for f in steps) if steps else float("nan")
+        print(f"| {c} | {label} | {failed} of {len(steps)} | {newton:.2f} | {1000 * max(disp):.3g} mm ({max(disp) / size:.3g}) "
+              f"| {1000 * disp[-1]:.3g} mm ({disp[-1] / size:.3g}) | {ms:.3g} |")
+print()
+EOF
+}
+
+# --- 8. the duck's neck: suggest-link, actuation, stability of the cable models -----------
+duck_neck() {
+  step "the duck's neck: suggest-link, actuation, check --stability"
+  local w="$work/neck"
+  mkdir -p "$w"
+  header "$out/duck-neck.md" "The duck's neck: link suggestions, actuation, stability" \
+    "$tg suggest-link data/characters/duck.character.json --a body --b neck --axis 0 1 0 --range 20 --faces 2 --cables 2; $tg build data/characters/duck.character.json --out duck.scene.json && $tg solve duck.scene.json --out duck.solution.json --quiet && $tg design duck.scene.json --out duck.design.json --quiet && $tg actuation duck.scene.json --solution duck.solution.json --poses poses.json --max-actuators 3 --design duck.design.json --json act.json"
+  "$tg" build data/characters/duck.character.json --out "$w/duck.scene.json" 2>/dev/null
+  "$tg" solve "$w/duck.scene.json" --out "$w/duck.solution.json" --quiet
+  "$tg" design "$w/duck.scene.json" --out "$w/duck.design.json" --quiet
+  cat >"$w/poses.json" <<'EOF'
+{"format": "tensegrity-poses", "version": 1, "poses": [
+  {"name": "down", "targets": [{"block": "head", "by": [0, -0.01, 0]}]},
+  {"name": "left", "targets": [{"block": "head", "by": [0, 0, 0.01]}]}]}
+EOF
+  "$py" -c 'import json, sys; d = json.load(open(sys.argv[1])); d["poses"] = d["poses"][:1]; json.dump(d, open(sys.argv[2], "w"))' \
+    "$w/poses.json" "$w/down.json"
+  local rc
+  {
+    echo "## suggest-link: body to neck, a nodding hinge about y"
+    echo
+    echo "Score = k_axis / k_perp, smallest first; stiffnesses in N m/rad."
+    echo
+    echo '```'
+    "$tg" suggest-link data/characters/duck.character.json --a body --b neck --axis 0 1 0 --range 20 --faces 2 --cables 2
+    echo '```'
+    echo
+    echo "## actuation: two head poses"
+    echo
+    echo "poses.json:"
+    echo
+    echo '```json'
+    cat "$w/poses.json"
+    echo '```'
+    echo
+    echo "\`$tg actuation duck.scene.json --solution duck.solution.json --poses poses.json --max-actuators 3 --design duck.design.json --json act.json\`"
+    echo "(distances in m):"
+    echo
+    echo '```'
+    "$tg" actuation "$w/duck.scene.json" --solution "$w/duck.solution.json" --poses "$w/poses.json" \
+      --max-actuators 3 --design "$w/duck.design.json" --json "$w/act.json"
+    echo '```'
+    echo
+    echo "Rest-length changes of the chosen elements (mm, negative = shorter) and cables slack in the reached state:"
+    echo
+    "$py" - "$w/act.json" <<'EOF'
+import json, sys
+d = json.load(open(sys.argv[1]))
+print("| actuators | elements | pose | rest-length changes (mm) | slack cables | accepted steps |")
+print("|---:|---|---|---|---:|---:|")
+for level in d["levels"]:
+    for p in level["poses"]:
+        slack = p["cables_slack"]
+        slack = len(slack) if isinstance(slack, list) else slack
+        changes = ", ".join(f"{1000 * x:+.1f}" for x in p["rest_length_change"])
+        print(f"| {level['actuators']} | {', '.join(map(str, level['elements']))} | {p['name']} | {changes} | {slack} | {p['steps_accepted']} |")
+print()
+EOF
+    echo "\`down\` alone, \`--max-actuators 2\`, the same design:"
+    echo
+    echo '```'
+    "$tg" actuation "$w/duck.scene.json" --solution "$w/duck.solution.json" --poses "$w/down.json" \
+      --max-actuators 2 --design "$w/duck.design.json" --json "$w/act-down.json"
+    echo '```'
+    echo
+    echo "Both poses with stiff linear cords instead of the design, \`--max-actuators 2 --cable-strain 0.003\`:"
+    echo
+    echo '```'
+    "$tg" actuation "$w/duck.scene.json" --solution "$w/duck.solution.json" --poses "$w/poses.json" \
+      --max-actuators 2 --cable-strain 0.003 --json "$w/act-stiff.json"
+    echo '```'
+    echo
+    "$py" - "$w/act-stiff.json" <<'EOF'
+import json, sys
+d = json.load(open(sys.argv[1]))
+for level in d["levels"]:
+    slack = [len(p["cables_slack"]) if isinstance(p["cables_slack"], list) else p["cables_slack"] for p in level["poses"]]
+    print(f"- {level['actuators']} actuator(s): cables slack in the reached states: "
+          + ", ".join(f"{p['name']} {n}" for p, n in zip(level["poses"], slack)))
+print()
+EOF
+    echo "Without \`--design\` and at the default strain (cords at 10 %):"
+    echo
+    echo '```'
+    rc=0
+    "$tg" actuation "$w/duck.scene.json" --solution "$w/duck.solution.json" --poses "$w/poses.json" \
+      --max-actuators 2 --json "$w/act-soft.json" >"$w/soft.txt" 2>&1 || rc=$?
+    sed "s|$w/||g" "$w/soft.txt"
+    echo "(exit $rc)"
+    echo '```'
+    echo
+    echo "## check --stability: the form-found duck under each cable model"
+    echo
+    echo "\`$tg check duck.scene.json duck.solution.json --stability --cable-strain S\` (or \`--design duck.design.json\`):"
+    echo
+    echo "| cable model | exit | verdict | smallest stiffness eigenvalues (N/m) |"
+    echo "|---|---:|---|---|"
+  } >>"$out/duck-neck.md"
+  local model
+  for model in 0.1:10 0.03:3 0.01:1 0.001:0.1 design; do  # strain:percent
+    local args=(--cable-strain "${model%%:*}") label="cords at ${model##*:} %"
+    [ "$model" = design ] && args=(--design "$w/duck.design.json") label="design (elastic-cord-2mm)"
+    rc=0
+    "$tg" check "$w/duck.scene.json" "$w/duck.solution.json" --stability "${args[@]}" >"$w/stab.txt" 2>&1 || rc=$?
+    "$py" - "$w/stab.txt" "$label" "$rc" >>"$out/duck-neck.md" <<'EOF'
+import re, sys
+text = open(sys.argv[1]).read()
+stability = re.search(r"^stability\s+(.*)$", text, re.M)
+eig = re.search(r"^eigenvalues\s+(.*) N/m$", text, re.M)
+verdict = stability.group(1).split(";")[0] + ")" if stability and "(" in stability.group(1) else (stability.group(1) if stability else "-")
+values = ", ".join(f"{float(v):.3g}" for v in eig.group(1).split()[:4]) if eig else "-"
+print(f"| {sys.argv[2]} | {sys.argv[3]} | {verdict.replace('|', chr(92) + '|')} | {values} |")
+EOF
+  done
+  echo >>"$out/duck-neck.md"
+}
+
+# --- 9. the links' rotational stiffness (link_stiffness_test) --------------------------
+link_stiffness() {
+  step "link stiffness: face and edge links between two blocks"
+  local test_bin=$build/tests/link_stiffness_test
+  [ -x "$test_bin" ] || { echo "docs-figures: $test_bin missing" >&2; exit 1; }
+  header "$out/link-stiffness.md" "Rotational stiffness of face and edge links" \
+    "$test_bin --gtest_filter=LinkStiffness.EdgeLinkIsMoreIsotropicThanFaceLink"
+  {
+    echo "Two blocks of scale 0.05 m, 0.16 m apart along x, joined by one face or one edge link;"
+    echo "cables EA 20 N, struts effectively rigid, forces scaled to a mean cable force of 1 N; block A"
+    echo "clamped, block B moved rigidly, the link's own nodes relaxed, B's translation condensed out."
+    echo "Principal stiffnesses in N m/rad, anisotropy = max/min."
+    echo
+    echo '```'
+    "$test_bin" --gtest_filter=LinkStiffness.EdgeLinkIsMoreIsotropicThanFaceLink | grep -E 'link|PASSED|FAILED'
+    echo '```'
+  } >>"$out/link-stiffness.md"
+}
+
+# --- 10. the faithful Algorithm 1 on the noisy characters ------------------------------
+character_stress() {
+  step "stress test: the faithful Algorithm 1 on the characters with node noise"
+  local cmd="$tg stress-test --families noise --trials 4 --time-limit 20 --jobs 1 --solvers alternating --scenes character --quiet --out stress-characters.json"
+  header "$out/stress-characters.md" "Stress test: the faithful Algorithm 1 on the noisy characters" "$cmd"
+  "$tg" stress-test --families noise --trials 4 --time-limit 20 --jobs 1 --solvers alternating --scenes character \
+    --quiet --out "$work/stress-characters.json"
+  {
+    echo "The three characters at the paper's counts, node noise 0.001 .. 0.3 of the median element"
+    echo "length, four trials per scene and level, at most 20 s per solve."
+    echo
+    stress_table "$work/stress-characters.json"
+  } >>"$out/stress-characters.md"
 }
 
 # --- ipopt: cold and warm start, MUMPS orderings ----------------------------------
@@ -408,7 +782,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters relax backends stress_noise scaling stress_families ipopt_starts gravity_towers}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress backends stress_noise scaling stress_families ipopt_starts gravity_towers}; do
   "$section"
 done
 step "done; figures in $out"
