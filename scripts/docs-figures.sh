@@ -19,6 +19,9 @@
 #   stress-characters.md  the faithful Algorithm 1 on the characters with node noise
 #   gravity-towers.md  the gravity tower family (compare_bench gravity-towers/),
 #                  every backend; gravity-towers.json is the raw output
+#   ipopt-starts.md  ipopt's starts on gravity prisms and a tower; MUMPS orderings
+#   ipopt-auto-stress.md  ipopt start=scene against start=auto over the stress
+#                  test (only when FIGURES_SECTIONS names ipopt_auto_stress)
 #   *.png          report.py's plots of the comparison and scaling runs
 # Every Markdown file starts with the command, the commit, the date and the
 # machine; every JSON file carries the same record under "provenance".
@@ -30,7 +33,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress backends stress_noise scaling stress_families ipopt_starts
-# gravity_towers), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# gravity_towers; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -688,13 +691,31 @@ character_stress() {
 }
 
 # --- ipopt: cold and warm start, MUMPS orderings ----------------------------------
+# Not in the default list (about 30 minutes on two cores): ipopt's start=scene
+# against start=auto over every stress-test family of the reference scenes.
+ipopt_auto_stress() {
+  step "ipopt-auto-stress.md: ipopt start=scene vs start=auto, stress test of the reference scenes"
+  local cmd="$tg stress-test --scenes reference --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option start=scene|auto --quiet --out stress-ipopt-START.json"
+  for start in scene auto; do
+    "$tg" stress-test --scenes reference --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option "start=$start" \
+      --quiet --out "$work/stress-ipopt-$start.json" >/dev/null || true
+  done
+  header "$out/ipopt-auto-stress.md" "ipopt: start=scene against start=auto on the stress test" "$cmd" \
+    "&& bench/scripts/compare_stress.py stress-ipopt-scene.json stress-ipopt-auto.json --list"
+  {
+    echo '```'
+    "$py" bench/scripts/compare_stress.py "$work/stress-ipopt-scene.json" "$work/stress-ipopt-auto.json" --list
+    echo '```'
+  } >>"$out/ipopt-auto-stress.md"
+}
+
 ipopt_starts() {
   step "ipopt-starts.md: start=scene vs start=alternating-gn vs alternating-gn; MUMPS orderings"
   local tower10="$work/tower-10.scene.json" tower40="$work/tower-40.scene.json"
   "$tg" generate tower --layers 10 --struts-per-layer 8 --cables 500 --gravity --out "$tower10" >/dev/null
   "$tg" generate tower --layers 40 --struts-per-layer 8 --cables 2000 --gravity --out "$tower40" >/dev/null
   header "$out/ipopt-starts.md" "ipopt: where it starts, and the MUMPS ordering" \
-    "tensegrity solve SCENE --solver ipopt [--option start=alternating-gn] [--option mumps_pivot_order=N] --time-limit $limit"
+    "tensegrity solve SCENE --solver ipopt [--option start=scene|alternating-gn] [--option mumps_pivot_order=N] --time-limit $limit"
   run_row() {  # run_row LABEL SCENE SOLVER OPTION...: one table row from the solution file
     local label=$1 scene=$2 solver=$3
     shift 3
@@ -716,8 +737,9 @@ EOF2
                  data/reference/prism-12-gravity.scene.json "$tower10"; do
       name=$(basename "$scene" .scene.json)
       [ "$scene" = "$tower10" ] && name="tower, 10 layers x 8 struts, 500 cables, gravity"
-      run_row "$name: ipopt start=scene" "$scene" ipopt
+      run_row "$name: ipopt start=scene" "$scene" ipopt start=scene
       run_row "$name: ipopt start=alternating-gn" "$scene" ipopt start=alternating-gn
+      run_row "$name: ipopt start=auto (default)" "$scene" ipopt
       run_row "$name: alternating-gn" "$scene" alternating-gn
     done
     echo

@@ -32,6 +32,16 @@ constexpr double kSignificantlySmaller = 1e-9;
 // The MUMPS ordering for Eq. 5's KKT matrix: 6 = QAMD, the ordering made for
 // quasi-dense rows such as the force-scale row (docs/BACKENDS.md compares them).
 constexpr int kQuasiDenseOrdering = 6;
+// start=auto: the run from the scene gets this many Ipopt iterations, or this
+// many times the warm run's when that is more. From the scene Ipopt either
+// reaches its own optimum within a few times the warm run's iterations or
+// wanders at large inertia corrections for hundreds (docs/BACKENDS.md).
+constexpr int kColdIterationsAtLeast = 100;
+constexpr int kColdIterationsPerWarmIteration = 5;
+// start=auto: the warm run gets at most this many: from an equilibrium Ipopt
+// converges in tens of iterations or not at all, and the run from the scene
+// then needs the time.
+constexpr int kWarmIterationsAtMost = 300;
 
 // The equilibrium alternating-gn reaches from the part's geometry, or an
 // empty result when it does not converge within the same settings.
@@ -114,9 +124,10 @@ IpoptOptions IpoptOptions::FromPairs(const OptionPairs& pairs) {
   IpoptOptions o;
   for (const auto& [key, value] : pairs) {
     if (key == kStartKey) {
-      if (value == "scene") o.start = IpoptStart::Scene;
+      if (value == "auto") o.start = IpoptStart::Auto;
+      else if (value == "scene") o.start = IpoptStart::Scene;
       else if (value == "alternating-gn") o.start = IpoptStart::AlternatingGn;
-      else throw OptionError("ipopt", key, value, "not a start (valid: scene, alternating-gn)");
+      else throw OptionError("ipopt", key, value, "not a start (valid: auto, scene, alternating-gn)");
       continue;
     }
     if (key == kPrestressKey) {
@@ -141,11 +152,100 @@ bool IpoptOptions::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// One Ipopt run of Eq. 5 and its independent check.
+struct Eq5Run {
+  Status status = Status::NumericalError;
+  std::string message;
+  int return_code = 0;
+  int iterations = 0;
+  Eigen::Matrix3Xd positions;
+  Eigen::VectorXd forces;
+  Verification check;
+  bool ok() const { return status == Status::Converged && check.ok; }
+};
+
+// What every run of one part solve shares: the part, its problem, the
+// settings and the trace, whose iteration and evaluation counts continue
+// from run to run.
+struct Eq5Runner {
+  const Structure& part;
+  const SolveOptions& options;
+  const Eigen::VectorXd& sigma0;
+  double max_free_weight;
+  IpoptSettings settings;  // without max_iter: each run sets its own
+  TraceRecorder& recorder;
+
+  int next_iteration() const { return recorder.trace().empty() ? 0 : recorder.trace().back().iteration + 1; }
+  int evaluations() const { return recorder.trace().empty() ? 0 : recorder.trace().back().evaluations; }
+
+  // Runs `nlp` from `start` (the scene with sigma0 when null) for at most
+  // `max_iterations`. `record_first`: whether its iteration 0 is a new record
+  // (not when it repeats the point the trace ends at).
+  Eq5Run run(MinimalGeometryChangeNlp& nlp, const SolveResult* start, const Eigen::VectorXd* start_forces,
+             int max_iterations, bool record_first) {
+    DimensionlessEq5 problem(nlp, sigma0);
+    if (start != nullptr) {
+      problem.set_start(nlp.equilibrium().free_nodes().gather(start->positions),
+                        start_forces != nullptr ? *start_forces : start->forces);
+    }
+    IpoptSettings run_settings = settings;
+    run_settings.options.insert(run_settings.options.begin(), IpoptOption{"max_iter", max_iterations});
+    const int iteration_offset = next_iteration() - (record_first ? 0 : 1);
+    const int evaluation_offset = evaluations();
+    run_settings.on_iteration = [&](const IpoptIteration& it) {
+      if (record_first || it.iteration > 0) {
+        TracePoint p = problem.trace_point(it, max_free_weight);
+        p.iteration += iteration_offset;
+        p.evaluations += evaluation_offset;
+        recorder.record(p);
+      }
+      return recorder.out_of_time() ? IterationControl::StopForTimeLimit : IterationControl::Continue;
+    };
+    const IpoptSolveResult native = solve_with_ipopt(problem, run_settings);
+    Eq5Run r;
+    r.status = native.status;
+    r.message = native.message;
+    r.return_code = native.return_code;
+    r.iterations = native.iterations;
+    if (problem.has_final_point() && problem.final_point().allFinite()) {
+      r.positions = nlp.positions(problem.final_point());
+      r.forces = nlp.forces(problem.final_point());
+    } else {
+      r.positions = start != nullptr ? start->positions : part.positions;
+      r.forces = start_forces != nullptr ? *start_forces : (start != nullptr ? start->forces : sigma0);
+    }
+    r.check = verify(part, r.positions, r.forces, options.tolerance);
+    return r;
+  }
+
+  // A record of the kept answer, when the trace ends elsewhere.
+  void record_answer(const Eq5Run& r) {
+    TracePoint p;
+    p.iteration = next_iteration();
+    p.evaluations = evaluations();
+    p.residual = r.check.residual;
+    p.relative_residual = r.check.relative_residual;
+    p.geometry_change = r.check.geometry_change;
+    recorder.record(p);
+  }
+};
+
+// The closer of two runs to the scene among those that converged and verify
+// (`a` unless `b` is closer by more than round-off, or when neither does).
+const Eq5Run& closer(const Eq5Run& a, const Eq5Run& b) {
+  if (!b.ok()) return a;
+  if (!a.ok()) return b;
+  return b.check.geometry_change < (1.0 - kSignificantlySmaller) * a.check.geometry_change ? b : a;
+}
+
+}  // namespace
+
 SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOptions& ipopt_options) const {
   const Structure& part = part_problem.part;
   const SolveOptions& options = part_problem.options;
   TraceRecorder recorder(options.time_limit_s);
-  SolveResult result;
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
   const double max_free_weight = part.max_free_node_weight();
 
@@ -158,8 +258,6 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
     sigma0 = qp.solve().sigma;
     if (sigma0.size() != part.num_elements() || !sigma0.allFinite()) sigma0 = reference_forces(part, scale);
   }
-  result.positions = part.positions;
-  result.forces = sigma0;
 
   // Ipopt's constraint violation is the max-norm of f / F0; the contract asks
   // |f_i| <= tolerance * load scale, where the load scale is the largest
@@ -169,11 +267,8 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
   const double constraint_tolerance = 0.1 * options.tolerance * load_over_force / std::sqrt(3.0);
 
-  SolveResult start;
-  if (ipopt_options.start == IpoptStart::AlternatingGn) start = equilibrium_start(part, options);
-  const bool from_equilibrium = start.positions.cols() == part.num_nodes();
-
-  IpoptSettings settings;
+  Eq5Runner runner{part, options, sigma0, max_free_weight, {}, recorder};
+  IpoptSettings& settings = runner.settings;
   settings.verbose = options.verbose;
   settings.set("linear_solver", "mumps");
   settings.set("mumps_pivot_order", kQuasiDenseOrdering);
@@ -189,72 +284,96 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   // result back onto them afterwards; that projection moves forces, so it must
   // stay below what the residual test can see.
   settings.set("bound_relax_factor", 0.1 * constraint_tolerance);
-  settings.set("max_iter", options.iteration_budget(kDefaultIterationBudget));
   // No max_cpu_time: Ipopt 3.11 measures the CPU time of the whole process, so
   // with solves on other threads it stops early (two busy threads: after half
   // the budget). The wall-clock limit is checked in every iteration instead.
   settings.options.insert(settings.options.end(), ipopt_options.typed.begin(), ipopt_options.typed.end());
+  const int budget = options.iteration_budget(kDefaultIterationBudget);
 
-  DimensionlessEq5 problem(nlp, sigma0);
-  if (from_equilibrium) problem.set_start(nlp.equilibrium().free_nodes().gather(start.positions), start.forces);
-  settings.on_iteration = [&](const IpoptIteration& it) {
-    recorder.record(problem.trace_point(it, max_free_weight));
-    return recorder.out_of_time() ? IterationControl::StopForTimeLimit : IterationControl::Continue;
-  };
-  const IpoptSolveResult run = solve_with_ipopt(problem, settings);
-  result.native_code = run.return_code;
-  result.status = run.status;
-  result.message = run.message;
-  if (from_equilibrium)
-    result.message += " (started from alternating-gn's equilibrium after " + std::to_string(start.stats.iterations) +
-                      " iterations)";
-  result.stats.iterations = run.iterations;
+  // The held problem from the chosen start(s).
+  std::string start_note;
+  Eq5Run held;
+  int ipopt_iterations = 0;  // of every run
   auto details = std::make_shared<IpoptDetails>();
-  details->return_code = run.return_code;
-  details->iterations = run.iterations;
-  result.details = {details};  // shared: the capped run below adds to it
-
-  if (problem.has_final_point() && problem.final_point().allFinite()) {
-    result.positions = nlp.positions(problem.final_point());
-    result.forces = nlp.forces(problem.final_point());
+  if (ipopt_options.start == IpoptStart::Scene) {
+    held = runner.run(nlp, nullptr, nullptr, budget, true);
+  } else {
+    const SolveResult equilibrium = equilibrium_start(part, options);
+    const bool have_equilibrium = equilibrium.positions.cols() == part.num_nodes();
+    Eq5Run warm;
+    if (have_equilibrium) {
+      for (const TracePoint& p : equilibrium.trace) recorder.record(p);
+      const int warm_budget =
+          ipopt_options.start == IpoptStart::Auto ? std::min(budget, kWarmIterationsAtMost) : budget;
+      warm = runner.run(nlp, &equilibrium, nullptr, warm_budget, false);
+      start_note = " (started from alternating-gn's equilibrium after " +
+                   std::to_string(equilibrium.stats.iterations) + " iterations)";
+    }
+    if (ipopt_options.start == IpoptStart::AlternatingGn && have_equilibrium) {
+      held = std::move(warm);
+    } else if (!warm.ok()) {
+      // start=auto without a warm answer: the scene with the whole budget.
+      held = runner.run(nlp, nullptr, nullptr, budget, true);
+      ipopt_iterations += warm.iterations;
+      start_note.clear();
+      if (ipopt_options.start == IpoptStart::Auto) {
+        details->cold_start_iterations = held.iterations;
+        details->cold_start_kept = true;
+      }
+    } else {
+      // start=auto with a warm answer: the scene too, with a budget that a
+      // cold run converging to its own optimum needs and a wandering one
+      // exceeds; the closer verified answer is kept.
+      const int cold_budget = std::min(
+          budget, std::max(kColdIterationsAtLeast, kColdIterationsPerWarmIteration * warm.iterations));
+      Eq5Run cold;
+      if (!recorder.out_of_time()) {
+        cold = runner.run(nlp, nullptr, nullptr, cold_budget, true);
+        details->cold_start_iterations = cold.iterations;
+      }
+      ipopt_iterations += warm.iterations + cold.iterations;
+      // On a tie the scene's answer: the prestress cap below may continue
+      // differently from two optima of the same change.
+      const bool cold_kept = &closer(cold, warm) == &cold;
+      details->cold_start_kept = cold_kept;
+      held = cold_kept ? std::move(cold) : std::move(warm);
+      ipopt_iterations -= held.iterations;
+      if (cold_kept) start_note = " (started from the scene; the start at alternating-gn's equilibrium ended farther)";
+      else runner.record_answer(held);
+    }
   }
-  Verification v = verify(part, result.positions, result.forces, options.tolerance);
-  if (ipopt_options.prestress == IpoptPrestress::Cap && scale.has_prestress_cap() &&
-      result.status == Status::Converged && v.ok && !recorder.out_of_time()) {
+  ipopt_iterations += held.iterations;
+  details->return_code = held.return_code;
+
+  SolveResult result;
+  result.native_code = held.return_code;
+  result.status = held.status;
+  result.message = held.message + start_note;
+  result.positions = held.positions;
+  result.forces = held.forces;
+  Verification v = held.check;
+  if (ipopt_options.prestress == IpoptPrestress::Cap && scale.has_prestress_cap() && held.ok() &&
+      !recorder.out_of_time()) {
     // The capped problem restarted at the held optimum: a feasible start, so
     // Ipopt stays near it instead of wandering as it does from the scene.
     MinimalGeometryChangeNlp capped_nlp(part, scale, PrestressRow::Cap);
-    DimensionlessEq5 capped(capped_nlp, sigma0);
-    capped.set_start(capped_nlp.equilibrium().free_nodes().gather(result.positions), result.forces);
-    // One trace for both runs: the capped run's iteration 0 is the held
-    // optimum, already recorded; its counts continue the held run's.
-    const int iteration_offset = run.iterations;
-    const int evaluation_offset = recorder.trace().empty() ? 0 : recorder.trace().back().evaluations;
-    settings.on_iteration = [&](const IpoptIteration& it) {
-      if (it.iteration > 0) {
-        TracePoint p = capped.trace_point(it, max_free_weight);
-        p.iteration += iteration_offset;
-        p.evaluations += evaluation_offset;
-        recorder.record(p);
-      }
-      return recorder.out_of_time() ? IterationControl::StopForTimeLimit : IterationControl::Continue;
-    };
-    const IpoptSolveResult capped_run = solve_with_ipopt(capped, settings);
-    details->iterations += capped_run.iterations;
-    result.stats.iterations += capped_run.iterations;
-    if (capped_run.status == Status::Converged && capped.has_final_point() && capped.final_point().allFinite()) {
-      const Eigen::Matrix3Xd x = capped_nlp.positions(capped.final_point());
-      const Eigen::VectorXd sigma = capped_nlp.forces(capped.final_point());
-      const Verification vc = verify(part, x, sigma, options.tolerance);
-      if (vc.ok && vc.geometry_change < (1.0 - kSignificantlySmaller) * v.geometry_change) {
-        result.positions = x;
-        result.forces = sigma;
-        v = vc;
-        details->prestress_cap_kept = true;
-        result.message += " (mean cable force below the cap)";
-      }
+    SolveResult held_answer;
+    held_answer.positions = held.positions;
+    const Eq5Run capped = runner.run(capped_nlp, &held_answer, &held.forces, budget, false);
+    ipopt_iterations += capped.iterations;
+    if (&closer(held, capped) == &capped) {
+      result.positions = capped.positions;
+      result.forces = capped.forces;
+      v = capped.check;
+      details->prestress_cap_kept = true;
+      result.message += " (mean cable force below the cap)";
+    } else {
+      runner.record_answer(held);
     }
   }
+  details->iterations = ipopt_iterations;
+  result.stats.iterations = recorder.trace().empty() ? 0 : recorder.trace().back().iteration;
+  result.details = {details};
   if (result.status == Status::Converged && !v.ok && v.all_finite && v.wrong_signs == 0) {
     // Ipopt's scaled stopping test was met but not the contract's: one stress
     // solve at the final geometry, warm-started from Ipopt's forces.
@@ -286,6 +405,10 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
 nlohmann::json IpoptDetails::to_json() const {
   nlohmann::json j = {{"return_code", return_code}, {"iterations", iterations}};
   if (prestress_cap_kept) j["prestress_cap_kept"] = true;
+  if (cold_start_iterations >= 0) {
+    j["cold_start_iterations"] = cold_start_iterations;
+    j["cold_start_kept"] = cold_start_kept;
+  }
   return j;
 }
 

@@ -6,10 +6,11 @@
 // Ipopt sees a dimensionless problem: y = ((q - q0) / L, sigma / F0), equality
 // rows f / F0 and c^T sigma / F0 (L = mean element length, F0 the ForceScale
 // reference force), so its tolerances mean the same at every scene scale.
-// Starting point (option `start`): by default the scene geometry with the
-// stress QP's forces; with `start=alternating-gn` the equilibrium that
-// alternating-gn reaches from the scene (the scene again when it does not
-// converge). docs/BACKENDS.md compares the two.
+// Starting point (option `start`): `scene`, the scene geometry with the stress
+// QP's forces; `alternating-gn`, the equilibrium that alternating-gn reaches
+// from the scene (the scene again when it does not converge); `auto` (the
+// default), both, each with an iteration budget that a converging run does not
+// need, keeping the closer verified answer. docs/BACKENDS.md compares them.
 //
 // Defaults: exact Hessian, linear_solver mumps with the QAMD ordering (the
 // force-scale row couples every cable force, and QAMD keeps such quasi-dense
@@ -41,18 +42,21 @@ namespace tensegrity {
 // Where Ipopt starts: the scene geometry with the stress QP's forces, or the
 // equilibrium that alternating-gn finds (the objective still measures the
 // change from the scene geometry, so this is a start, not a different problem).
-enum class IpoptStart { Scene, AlternatingGn };
+// `Auto` runs both: first from alternating-gn's equilibrium, then from the
+// scene with an iteration budget of a few times the first run's, and keeps the
+// closer verified answer.
+enum class IpoptStart { Auto, Scene, AlternatingGn };
 
 // Under gravity, Eq. 5's mean cable force: held at kappa times the weight
 // (`equal`), or first held there and then only capped by it, Ipopt restarting
 // from the held optimum and keeping the smaller verified change (`cap`).
 enum class IpoptPrestress { Equal, Cap };
 
-// `start=scene|alternating-gn` (default scene), `prestress=equal|cap`
+// `start=auto|scene|alternating-gn` (default auto), `prestress=equal|cap`
 // (default cap: never farther than `equal`, docs/THEORY-force-scale.md) and native Ipopt options given as `--option key=value`,
 // checked against Ipopt's own registry (name, type and range).
 struct IpoptOptions {
-  IpoptStart start = IpoptStart::Scene;
+  IpoptStart start = IpoptStart::Auto;
   IpoptPrestress prestress = IpoptPrestress::Cap;
   OptionPairs native;  // every pair except `start` and `prestress`
   std::vector<IpoptOption> typed;  // `native` with the types of Ipopt's registry
@@ -63,7 +67,11 @@ struct IpoptOptions {
 // The solution file's "details" of an ipopt part solve (docs/FORMATS.md).
 struct IpoptDetails : SolverDetails {
   int return_code = 0;  // Ipopt's ApplicationReturnStatus (0: Solve_Succeeded)
-  int iterations = 0;   // Ipopt's own iteration count (both runs with prestress=cap)
+  int iterations = 0;   // Ipopt's own iteration count, over every run of the part
+  // start=auto: the run from the scene's iterations (-1: not run) and whether
+  // its answer was kept (converged, verified and closer than the warm run's).
+  int cold_start_iterations = -1;
+  bool cold_start_kept = false;
   // prestress=cap under gravity: the capped run's change was kept (it was
   // smaller than the held run's and verified).
   bool prestress_cap_kept = false;
