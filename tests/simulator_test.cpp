@@ -6,11 +6,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
-#include <memory>
-#include <random>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <vector>
 
 #include "simulation_fixtures.hpp"
 
@@ -253,6 +256,32 @@ TEST_F(DuckDrag, TheFullStepFailsAndItsHalvesAreTheHalfStepRun) {
   EXPECT_NEAR(whole.time, 2.0, 1e-12);
 }
 
+TEST_F(DuckDrag, TheCommandExitsZeroAndItsFramesCountTheSubsteps) {
+  // docs/CHARACTERS.md's command, 10 steps: frames 1-5 are split in two.
+  const Eigen::Vector3d target = model_->reference.col(kHeadTip) + Eigen::Vector3d(0.0, 0.05, 0.0);
+  char drag_option[128];
+  std::snprintf(drag_option, sizeof drag_option, "%d:%.17g,%.17g,%.17g", kHeadTip, target.x(), target.y(), target.z());
+  const std::string frames = dir_ + "/duck.jsonl", logs = dir_ + "/simulate.logs";
+  std::filesystem::create_directories(logs);
+  const testing::ProgramRun run = testing::run_program(
+      {"simulate", dir_ + "/duck.design.json", "--steps", "10", "--drag", drag_option, "--damping", "2", "--out", frames,
+       "--no-vtk", "--quiet"},
+      logs);
+  ASSERT_EQ(run.exit_status, 0) << run.err;
+  std::ifstream in(frames);
+  std::string line;
+  std::vector<nlohmann::json> lines;
+  while (std::getline(in, line)) lines.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(lines.size(), 11u);
+  EXPECT_FALSE(lines[0].contains("substeps"));
+  const Run reference = drag(1.0 / 60.0, 10);
+  for (int k = 1; k <= 10; ++k) {
+    EXPECT_EQ(lines[k].at("substeps").get<int>(), reference.reports[k - 1].substeps) << k;
+    EXPECT_TRUE(lines[k].at("converged").get<bool>()) << k;
+  }
+  EXPECT_EQ(lines[1].at("substeps").get<int>(), 2);
+}
+
 TEST_F(DuckDrag, AMovedTargetIsInterpolatedOverTheHalves) {
   // Step 1 pulls 5 mm, step 2 moves the target to 5 cm. The split step 2 is
   // two steps of h/2 with the target half way and then at 5 cm.
@@ -284,6 +313,28 @@ TEST_F(DuckDrag, AMovedTargetIsInterpolatedOverTheHalves) {
   EXPECT_TRUE((sim.positions().array() == half.positions().array()).all())
       << "largest difference " << max_distance(sim.positions(), half.positions()) << " m";
   EXPECT_TRUE((sim.velocities().array() == half.velocities().array()).all());
+}
+
+TEST_F(DuckDrag, AStepFailingAtEveryLevelIsReportedOnceSplitToTheSmallest) {
+  // One Newton iteration per solve cannot converge at any step size: the step
+  // is split to h/16 everywhere (16 substeps, 15 abandoned solves), reported
+  // not converged, and still ends at h with finite positions.
+  const ElasticModel& model = *model_;
+  SimulationOptions o;
+  o.mass_damping = 2.0;
+  o.max_newton_iterations = 1;
+  Simulator sim(model, model.structure.gravity, o);
+  sim.set_drags({{kHeadTip, model.reference.col(kHeadTip) + Eigen::Vector3d(0.0, 0.05, 0.0),
+                  model.force_scale / (0.05 * model.length_scale)}});
+  const StepReport r = sim.step();
+  const int smallest = 1 << kDefaultMaxSubstepHalvings;
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.substeps, smallest);
+  EXPECT_EQ(r.retries, smallest - 1);
+  EXPECT_EQ(r.newton_iterations, 2 * smallest - 1);  // one per solve
+  EXPECT_EQ(r.smallest_substep, o.time_step / smallest);
+  EXPECT_EQ(sim.time(), o.time_step);
+  EXPECT_TRUE(sim.positions().allFinite() && sim.velocities().allFinite());
 }
 
 TEST_F(DuckDrag, ARunThatNeverSplitsIsBitIdenticalToOneSolvePerStep) {
