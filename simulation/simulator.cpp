@@ -88,7 +88,8 @@ double Simulator::merit(const Eigen::Matrix3Xd& x) const {
     inertia += m[i] * (x.col(i) - x_inertial_.col(i)).squaredNorm();
     if (options_.mass_damping > 0.0) damping += m[i] * (x.col(i) - x_prev_.col(i)).squaredNorm();
   }
-  double value = inertia / (2 * h * h) + options_.mass_damping * damping / (2 * h) + energy_.energy(x, active_drags_);
+  double value =
+      inertia / (2 * h * h) + options_.mass_damping * damping / (2 * h) + energy_.energy(x, active_drags_);
   if (options_.stiffness_damping > 0.0) {
     free_displacement(x);
     kdq_.noalias() = damping_k_ * dq_;

@@ -109,8 +109,8 @@ class Simulator {
 
  private:
   // One implicit-Euler step of length h from (x_, v_), drags at `drag_fraction`
-  // of the way from their previous targets to the current ones; the substep's
-  // outcome is added to `report`. x_prev_, v_prev_ keep its start.
+  // of the way from their previous targets to the current ones; its outcome
+  // goes into `report`. x_prev_, v_prev_ keep its start.
   bool newton_step(double h, double drag_fraction, StepReport& report);
   // newton_step, retried as two halves while it fails and halvings remain.
   void advance(double h, int halvings, double fraction_start, double fraction_span, StepReport& report);

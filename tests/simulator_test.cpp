@@ -191,8 +191,8 @@ class DuckDrag : public ::testing::Test {
   static constexpr int kHeadTip = 59;
   static void SetUpTestSuite() {
     dir_ = testing::temp_dir("simulator-substeps");
-    const std::string path = testing::run_design(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/duck.character.json",
-                                                 {"--quiet"}, dir_ + "/duck.design.json");
+    const std::string character = std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/duck.character.json";
+    const std::string path = testing::run_design(character, {"--quiet"}, dir_ + "/duck.design.json");
     ASSERT_FALSE(path.empty()) << "tensegrity design failed, see " << dir_ << "/duck.design.json.logs/stderr";
     model_ = std::make_unique<ElasticModel>(make_elastic_model(read_design_file(path)));
   }
@@ -264,8 +264,8 @@ TEST_F(DuckDrag, TheCommandExitsZeroAndItsFramesCountTheSubsteps) {
   const std::string frames = dir_ + "/duck.jsonl", logs = dir_ + "/simulate.logs";
   std::filesystem::create_directories(logs);
   const testing::ProgramRun run = testing::run_program(
-      {"simulate", dir_ + "/duck.design.json", "--steps", "10", "--drag", drag_option, "--damping", "2", "--out", frames,
-       "--no-vtk", "--quiet"},
+      {"simulate", dir_ + "/duck.design.json", "--steps", "10", "--drag", drag_option, "--damping", "2", "--out",
+       frames, "--no-vtk", "--quiet"},
       logs);
   ASSERT_EQ(run.exit_status, 0) << run.err;
   std::ifstream in(frames);
