@@ -7,8 +7,8 @@
 // (FRAMES-stem.NNNNNN.vtk) with a ParaView FRAMES-stem.vtk.series, and with
 // --render a PNG filmstrip of six frames. On standard error: a status line
 // rewritten in place on a terminal (cli/progress.hpp), else a line at every
-// tenth of the run; a line for every step whose Newton solve failed; and a
-// summary.
+// tenth of the run; a line for every step whose Newton solve failed even in
+// the smallest substeps (simulation/simulator.hpp); and a summary.
 #include <cairo.h>
 
 #include <algorithm>
@@ -221,6 +221,7 @@ int run_simulate(const SimulateArgs& a) {
     if (r) {
       j["newton_iterations"] = r->newton_iterations;
       j["converged"] = r->converged;
+      j["substeps"] = r->substeps;
       j["seconds"] = r->seconds;
     }
     nlohmann::json drags = nlohmann::json::array();
@@ -242,7 +243,7 @@ int run_simulate(const SimulateArgs& a) {
   ProgressLine progress(on_terminal && !a.quiet);
   char status[160];
   int last_tenth = 0;
-  int failed = 0, total_newton = 0;
+  int failed = 0, total_newton = 0, split = 0, most_substeps = 1;
   double total_seconds = 0.0, worst = 0.0;
   for (int k = 1; k <= a.steps; ++k) {
     std::vector<DragSpring> drags;
@@ -250,14 +251,17 @@ int run_simulate(const SimulateArgs& a) {
     sim.set_drags(std::move(drags));
     const StepReport r = sim.step();
     failed += r.converged ? 0 : 1;
+    split += r.substeps > 1 ? 1 : 0;
+    most_substeps = std::max(most_substeps, r.substeps);
     total_newton += r.newton_iterations;
     total_seconds += r.seconds;
     worst = std::max(worst, r.seconds);
     if (!a.quiet) {
       if (!r.converged) {
         progress.clear();
-        std::fprintf(stderr, "simulate: step %d t=%.4f s newton=%d%s time=%.3f ms NOT CONVERGED\n", k, sim.time(),
-                     r.newton_iterations, r.definite_fallbacks ? " (definite)" : "", 1e3 * r.seconds);
+        std::fprintf(stderr, "simulate: step %d t=%.4f s newton=%d%s substeps=%d time=%.3f ms NOT CONVERGED\n", k,
+                     sim.time(), r.newton_iterations, r.definite_fallbacks ? " (definite)" : "", r.substeps,
+                     1e3 * r.seconds);
       }
       if (progress.due() || (k == a.steps && progress.shown())) {
         std::snprintf(status, sizeof status, "simulate: step %d/%d, t = %.4f s, %.1f s elapsed", k, a.steps,
@@ -285,9 +289,10 @@ int run_simulate(const SimulateArgs& a) {
   if (!a.quiet || failed > 0)
     std::fprintf(stderr,
                "simulate: %s: %d steps of %.4g s, %d Newton iterations (%.2f per step), %.3f ms per step (max %.3f), "
-               "%d not converged; largest displacement from the design %.4g m (%.3g of its size)\n",
+               "%d split into substeps (up to %d per step), %d not converged; largest displacement from the design "
+               "%.4g m (%.3g of its size)\n",
                s.name.c_str(), a.steps, a.dt, total_newton, a.steps ? double(total_newton) / a.steps : 0.0,
-               a.steps ? 1e3 * total_seconds / a.steps : 0.0, 1e3 * worst, failed,
+               a.steps ? 1e3 * total_seconds / a.steps : 0.0, 1e3 * worst, split, most_substeps, failed,
                moved.colwise().norm().maxCoeff(), moved.colwise().norm().maxCoeff() / model.length_scale);
   return failed ? 1 : 0;
 }

@@ -40,14 +40,17 @@ Simulator::Simulator(const ElasticModel& model, const Eigen::Vector3d& gravity, 
   const FreeNodeMap& map = energy_.free_map();
   x_ = model.reference;
   v_ = Eigen::Matrix3Xd::Zero(3, x_.cols());
-  x_prev_ = x_inertial_ = trial_ = x_;
-  mass_dof_.resize(energy_.num_dofs());
+  x_prev_ = v_prev_ = x_inertial_ = trial_ = x_;
+  const int dofs = energy_.num_dofs();
+  mass_dof_.resize(dofs);
   for (int i : map.free_nodes()) mass_dof_.segment<3>(3 * map.slot(i)).setConstant(energy_.lumped_mass()[i]);
   hessian_ = energy_.pattern();
   damping_k_ = energy_.pattern();
-  gradient_.resize(energy_.num_dofs());
-  step_.resize(energy_.num_dofs());
-  damping_dx_.resize(energy_.num_dofs());
+  gradient_.resize(dofs);
+  step_.resize(dofs);
+  gradient_trial_.resize(dofs);
+  dq_.resize(dofs);
+  kdq_.resize(dofs);
   ldlt_ = std::make_unique<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>>();
   ldlt_->analyzePattern(hessian_);
 }
@@ -71,20 +74,26 @@ double Simulator::kinetic_energy() const {
 
 double Simulator::potential_energy() const { return energy_.energy(x_, drags_); }
 
+void Simulator::free_displacement(const Eigen::Matrix3Xd& x) const {
+  const FreeNodeMap& map = energy_.free_map();
+  for (int i : map.free_nodes()) dq_.segment<3>(3 * map.slot(i)) = x.col(i) - x_prev_.col(i);
+}
+
 double Simulator::merit(const Eigen::Matrix3Xd& x) const {
   const FreeNodeMap& map = energy_.free_map();
   const Eigen::VectorXd& m = energy_.lumped_mass();
-  const double h = options_.time_step;
+  const double h = h_;
   double inertia = 0.0, damping = 0.0;
   for (int i : map.free_nodes()) {
     inertia += m[i] * (x.col(i) - x_inertial_.col(i)).squaredNorm();
     if (options_.mass_damping > 0.0) damping += m[i] * (x.col(i) - x_prev_.col(i)).squaredNorm();
   }
-  double value = inertia / (2 * h * h) + options_.mass_damping * damping / (2 * h) + energy_.energy(x, drags_);
+  double value =
+      inertia / (2 * h * h) + options_.mass_damping * damping / (2 * h) + energy_.energy(x, active_drags_);
   if (options_.stiffness_damping > 0.0) {
-    Eigen::VectorXd dq(energy_.num_dofs());
-    for (int i : map.free_nodes()) dq.segment<3>(3 * map.slot(i)) = x.col(i) - x_prev_.col(i);
-    value += options_.stiffness_damping / (2 * h) * dq.dot(damping_k_ * dq);
+    free_displacement(x);
+    kdq_.noalias() = damping_k_ * dq_;
+    value += options_.stiffness_damping / (2 * h) * dq_.dot(kdq_);
   }
   return value;
 }
@@ -92,33 +101,84 @@ double Simulator::merit(const Eigen::Matrix3Xd& x) const {
 double Simulator::merit_gradient(const Eigen::Matrix3Xd& x, Eigen::VectorXd& g) const {
   const FreeNodeMap& map = energy_.free_map();
   const Eigen::VectorXd& m = energy_.lumped_mass();
-  const double h = options_.time_step, alpha = options_.mass_damping;
-  double value = energy_.energy_gradient(x, g, drags_);
+  const double h = h_, alpha = options_.mass_damping;
+  double value = energy_.energy_gradient(x, g, active_drags_);
   for (int i : map.free_nodes()) {
     const Eigen::Vector3d a = x.col(i) - x_inertial_.col(i), b = x.col(i) - x_prev_.col(i);
     value += m[i] * a.squaredNorm() / (2 * h * h) + alpha * m[i] * b.squaredNorm() / (2 * h);
     g.segment<3>(3 * map.slot(i)) += m[i] * (a / (h * h) + alpha * b / h);
   }
   if (options_.stiffness_damping > 0.0) {
-    Eigen::VectorXd dq(energy_.num_dofs());
-    for (int i : map.free_nodes()) dq.segment<3>(3 * map.slot(i)) = x.col(i) - x_prev_.col(i);
-    const Eigen::VectorXd kdq = damping_k_ * dq;
-    value += options_.stiffness_damping / (2 * h) * dq.dot(kdq);
-    g += (options_.stiffness_damping / h) * kdq;
+    free_displacement(x);
+    kdq_.noalias() = damping_k_ * dq_;
+    value += options_.stiffness_damping / (2 * h) * dq_.dot(kdq_);
+    g += (options_.stiffness_damping / h) * kdq_;
   }
   return value;
+}
+
+void Simulator::set_active_drags(double fraction) {
+  active_drags_ = drags_;
+  // The whole step: the targets as given, bit for bit.
+  if (fraction == 1.0) return;
+  for (std::size_t k = 0; k < active_drags_.size(); ++k) {
+    const Eigen::Vector3d& start = drag_start_targets_[k];
+    active_drags_[k].target = start + fraction * (drags_[k].target - start);
+  }
 }
 
 StepReport Simulator::step() {
   const auto t0 = Clock::now();
   StepReport report;
-  const FreeNodeMap& map = energy_.free_map();
+  report.converged = true;
+  report.substeps = 0;
   const double h = options_.time_step;
+  report.smallest_substep = h;
+  drag_start_targets_.resize(drags_.size());
+  for (std::size_t k = 0; k < drags_.size(); ++k) {
+    drag_start_targets_[k] = drags_[k].target;
+    for (const DragSpring& p : previous_drags_)
+      if (p.node == drags_[k].node) drag_start_targets_[k] = p.target;
+  }
+  const double t_start = time_;
+  advance(h, 0, 0.0, 1.0, report);
+  time_ = t_start + h;
+  previous_drags_ = drags_;
+  report.seconds = seconds_since(t0);
+  return report;
+}
+
+void Simulator::advance(double h, int halvings, double fraction_start, double fraction_span, StepReport& report) {
+  StepReport attempt;
+  const bool converged = newton_step(h, fraction_start + fraction_span, attempt);
+  report.newton_iterations += attempt.newton_iterations;
+  report.definite_fallbacks += attempt.definite_fallbacks;
+  if (converged || halvings >= options_.max_substep_halvings) {
+    report.converged = report.converged && converged;
+    ++report.substeps;
+    report.smallest_substep = std::min(report.smallest_substep, h);
+    report.gradient_norm = std::max(report.gradient_norm, attempt.gradient_norm);
+    report.velocity_jump += attempt.velocity_jump;
+    report.bregman += attempt.bregman;
+    return;
+  }
+  // Back to the start of this (sub)step, then two halves of it.
+  ++report.retries;
+  x_ = x_prev_;
+  v_ = v_prev_;
+  advance(0.5 * h, halvings + 1, fraction_start, 0.5 * fraction_span, report);
+  advance(0.5 * h, halvings + 1, fraction_start + 0.5 * fraction_span, 0.5 * fraction_span, report);
+}
+
+bool Simulator::newton_step(double h, double drag_fraction, StepReport& report) {
+  const FreeNodeMap& map = energy_.free_map();
+  h_ = h;
+  set_active_drags(drag_fraction);
   const double force_tol = options_.tolerance * energy_.model().force_scale;
   const double diagonal_mass_factor = 1.0 / (h * h) + options_.mass_damping / h;
   x_prev_ = x_;
+  v_prev_ = v_;
   x_inertial_ = x_ + h * v_;
-  const Eigen::Matrix3Xd v_prev = v_;
   if (options_.stiffness_damping > 0.0) energy_.hessian(x_prev_, HessianMode::Definite, damping_k_);
   x_ = x_inertial_;  // the predictor: exact for free flight
 
@@ -131,7 +191,7 @@ StepReport Simulator::step() {
       break;
     }
     auto assemble = [&](HessianMode mode, double shift) {
-      energy_.hessian(x_, mode, hessian_, drags_);
+      energy_.hessian(x_, mode, hessian_, active_drags_);
       for (int k = 0; k < energy_.num_dofs(); ++k)
         values[energy_.diagonal_slot(k)] += mass_dof_[k] * diagonal_mass_factor + shift;
       if (options_.stiffness_damping > 0.0) {
@@ -171,9 +231,8 @@ StepReport Simulator::step() {
       }
       // In the round-off regime of Phi, trust the gradient instead.
       if (ls == 0 && std::abs(phi_trial - phi) <= 1e-12 * (std::abs(phi) + 1.0)) {
-        Eigen::VectorXd g_trial(energy_.num_dofs());
-        merit_gradient(trial_, g_trial);
-        if (max_abs(g_trial) < report.gradient_norm) {
+        merit_gradient(trial_, gradient_trial_);
+        if (max_abs(gradient_trial_) < report.gradient_norm) {
           accepted = true;
           break;
         }
@@ -190,20 +249,18 @@ StepReport Simulator::step() {
     report.converged = report.gradient_norm <= force_tol;
   }
   v_ = (x_ - x_prev_) / h;
-  time_ += h;
 
   // Dissipation bookkeeping: 1/2 |dv|_M^2 and the Bregman divergence of E.
   const Eigen::VectorXd& m = energy_.lumped_mass();
   double jump = 0.0, linear = 0.0;
-  const double e_new = energy_.energy_gradient(x_, gradient_, drags_);
+  const double e_new = energy_.energy_gradient(x_, gradient_, active_drags_);
   for (int i : map.free_nodes()) {
-    jump += 0.5 * m[i] * (v_.col(i) - v_prev.col(i)).squaredNorm();
+    jump += 0.5 * m[i] * (v_.col(i) - v_prev_.col(i)).squaredNorm();
     linear += gradient_.segment<3>(3 * map.slot(i)).dot(x_prev_.col(i) - x_.col(i));
   }
   report.velocity_jump = jump;
-  report.bregman = energy_.energy(x_prev_, drags_) - e_new - linear;
-  report.seconds = seconds_since(t0);
-  return report;
+  report.bregman = energy_.energy(x_prev_, active_drags_) - e_new - linear;
+  return report.converged;
 }
 
 // ---- relax ----------------------------------------------------------------------
@@ -243,7 +300,7 @@ RelaxResult relax(const ElasticEnergy& energy, const Eigen::Matrix3Xd& start, st
   Eigen::SparseMatrix<double> H = energy.pattern();
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   ldlt.analyzePattern(H);
-  Eigen::VectorXd g(dofs), step(dofs);
+  Eigen::VectorXd g(dofs), step(dofs), g_trial(dofs);
   Eigen::Matrix3Xd trial = start;
   double shift_level = 0.0;  // Levenberg shift, relative to the mean diagonal
   for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
@@ -281,7 +338,6 @@ RelaxResult relax(const ElasticEnergy& energy, const Eigen::Matrix3Xd& start, st
         break;
       }
       if (ls == 0 && std::abs(e_trial - r.energy) <= 1e-12 * (std::abs(r.energy) + 1.0)) {
-        Eigen::VectorXd g_trial(dofs);
         energy.energy_gradient(trial, g_trial, drags);
         if (max_abs(g_trial) < r.gradient_norm) {
           accepted = true;

@@ -24,6 +24,20 @@
 // topology, numeric factorisation per iteration. No allocation in the loop
 // beyond Eigen's factor values.
 //
+// Substeps: when a step's Newton solve does not converge (typically a stiff
+// drag spring switched on at once: the exact Hessian of Phi is then indefinite
+// for many iterations and the definite fallback converges only linearly), the
+// step is retried as two implicit-Euler steps of h/2 from the same state,
+// recursively, down to h / 2^max_substep_halvings. The step still ends at
+// t_n + h, so output frames stay on the requested time grid, and a step that
+// converges at once is computed exactly as without this retry. Within a step
+// split into substeps, a drag target moves linearly from its target of the
+// previous step (if that node was dragged then) to its new one, which is what
+// a run at the smaller step sees with piecewise-linear drag targets; a drag
+// that starts this step pulls toward its target from the first substep.
+// Only when a substep of the smallest size fails is the step reported not
+// converged; its best iterate is kept and the step continues.
+//
 // Energy bookkeeping (used by the tests): with H = kinetic + E, one step
 // without damping obeys exactly
 //   H_{n+1} - H_n = -1/2 |v_{n+1} - v_n|_M^2 - D_E(x_n, x_{n+1}),
@@ -41,6 +55,10 @@
 
 namespace tensegrity {
 
+// Default for SimulationOptions::max_substep_halvings: substeps down to h/16.
+// A step whose every level fails costs at most 2^(k+1) - 1 Newton solves.
+inline constexpr int kDefaultMaxSubstepHalvings = 4;
+
 struct SimulationOptions {
   double time_step = 1.0 / 60.0;  // h (s)
   double mass_damping = 0.0;      // alpha (1/s)
@@ -49,14 +67,21 @@ struct SimulationOptions {
   double tolerance = 1e-9;
   int max_newton_iterations = 50;
   bool exact_hessian_when_definite = true;  // false: always the definite Hessian
+  // A failed step is retried as two halves, down to h / 2^max_substep_halvings;
+  // 0 turns the retry off (one Newton solve per step, kept even if it fails).
+  int max_substep_halvings = kDefaultMaxSubstepHalvings;
 };
 
 struct StepReport {
-  bool converged = false;
-  int newton_iterations = 0;
+  bool converged = false;       // every substep that makes up the step converged
+  int newton_iterations = 0;    // all of them, including those of abandoned solves
   int definite_fallbacks = 0;   // iterations that needed the definite Hessian
-  double gradient_norm = 0.0;   // max |dPhi/dx| at the end (N)
+  int substeps = 1;             // implicit-Euler steps that make up the step (1: not split)
+  int retries = 0;              // Newton solves abandoned and retried as two halves
+  double smallest_substep = 0.0;  // s, the shortest substep taken (h when not split)
+  double gradient_norm = 0.0;   // max |dPhi/dx| at the end, largest over the substeps (N)
   double seconds = 0.0;
+  // Summed over the substeps, so that the step's energy balance below holds.
   double velocity_jump = 0.0;   // 1/2 |v_{n+1} - v_n|_M^2 (J)
   double bregman = 0.0;         // D_E(x_n, x_{n+1}) (J)
 };
@@ -83,17 +108,30 @@ class Simulator {
   const ElasticEnergy& energy() const { return energy_; }
 
  private:
+  // One implicit-Euler step of length h from (x_, v_), drags at `drag_fraction`
+  // of the way from their previous targets to the current ones; its outcome
+  // goes into `report`. x_prev_, v_prev_ keep its start.
+  bool newton_step(double h, double drag_fraction, StepReport& report);
+  // newton_step, retried as two halves while it fails and halvings remain.
+  void advance(double h, int halvings, double fraction_start, double fraction_span, StepReport& report);
+  void set_active_drags(double fraction);
   double merit(const Eigen::Matrix3Xd& x) const;
   double merit_gradient(const Eigen::Matrix3Xd& x, Eigen::VectorXd& g) const;
+  void free_displacement(const Eigen::Matrix3Xd& x) const;  // dq_ = x - x_prev_ on the free nodes
 
   ElasticEnergy energy_;
   SimulationOptions options_;
   Eigen::Matrix3Xd x_, v_;
   double time_ = 0.0;
   std::vector<DragSpring> drags_;
+  std::vector<DragSpring> previous_drags_;  // the drags of the last step taken
+  std::vector<DragSpring> active_drags_;    // the drags of the substep being solved
+  std::vector<Eigen::Vector3d> drag_start_targets_;  // targets at the start of the step
+  double h_ = 0.0;                          // the substep being solved (s)
   // Per-step workspace, sized once.
-  Eigen::Matrix3Xd x_prev_, x_inertial_, trial_;
-  Eigen::VectorXd mass_dof_, gradient_, step_, damping_dx_;
+  Eigen::Matrix3Xd x_prev_, v_prev_, x_inertial_, trial_;
+  Eigen::VectorXd mass_dof_, gradient_, step_, gradient_trial_;
+  mutable Eigen::VectorXd dq_, kdq_;
   Eigen::SparseMatrix<double> hessian_, damping_k_;
   std::unique_ptr<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>> ldlt_;
 };
