@@ -287,6 +287,16 @@ def write_report(path, args, command, commits, takes, started, loads, table, sce
         f.write("\n".join(lines))
 
 
+def write_raw(f, raw):
+    """The raw records as JSON, one run a line."""
+    f.write('{"provenance": ' + json.dumps(raw["provenance"], indent=1) + ',\n"runs": [\n')
+    def compact(run):
+        return {k: float(f"{v:.6g}") if isinstance(v, float) else v for k, v in run.items()
+                if k != "geometry_change_L" and not (k == "error" and not v)}
+    f.write(",\n".join(json.dumps(compact(r), sort_keys=True) for r in raw["runs"]))
+    f.write("\n]}\n")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("old")
@@ -361,7 +371,7 @@ def main():
            "runs": [dict(rec, scene=scene, backend=backend, side=side)
                     for (scene, backend, side), recs in sorted(records.items()) for rec in recs]}
     with open(os.path.splitext(args.out)[0] + ".json", "w") as f:
-        json.dump(raw, f, indent=1)
+        write_raw(f, raw)
     print(open(args.out).read())
 
 
