@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Before/after medians of compare_bench: two commits, same machine, interleaved runs.
 
-    /usr/bin/python3 bench/scripts/before_after.py OLD NEW [--rounds 5] [--time-limit 10]
-        [--out docs/figures/layout-before-after.md]
+    /usr/bin/python3 bench/scripts/before_after.py OLD NEW [--rounds 7] [--time-limit 10]
+        [--take old|new:COMMIT:PATH] [--out docs/figures/layout-before-after.md]
 
 Each commit is exported with `git archive` into WORK/<commit>/ (default WORK:
 build/before-after) and its compare_bench is built there in WORK/<commit>/build
@@ -16,8 +16,9 @@ backend (Google Benchmark repeats a solve until --min-time has passed and
 reports the mean; one OpenBLAS thread), so that a change of the machine's load
 hits both sides alike. A row's time is the median over the rounds; the ratio is
 new/old of the medians; a row counts as outside noise when the two sets of
-round times do not overlap (for 5 rounds each, a chance of 2 in 252 if nothing
-changed) and the ratio is off by more than --noise (default 10 %).
+round times do not overlap (with n rounds a side a chance of 2 in C(2n, n) if
+nothing changed: 2 in 3432 for 7) and the ratio is off by more than --noise
+(default 10 %).
 
 Writes the Markdown table with its provenance (command, both commits, date,
 load average, machine) to --out and the raw per-run records beside it as JSON.
@@ -195,7 +196,8 @@ def summarise(rows_old, rows_new, time_limit, noise):
         "old_change": ch_old, "new_change": ch_new,
         "old_status": same([r["status"] for r in rows_old]) or "/".join(r["status"] for r in rows_old),
         "new_status": same([r["status"] for r in rows_new]) or "/".join(r["status"] for r in rows_new),
-        "old_elements": same([r["elements"] for r in rows_old]), "new_elements": same([r["elements"] for r in rows_new]),
+        "old_elements": same([r["elements"] for r in rows_old]),
+        "new_elements": same([r["elements"] for r in rows_new]),
         "old_nodes": same([r["nodes"] for r in rows_old]), "new_nodes": same([r["nodes"] for r in rows_new]),
         "timed_out": timed_out,
         "iterations_agree": same(it_old) is not None and same(it_old) == same(it_new),
@@ -236,7 +238,8 @@ def write_report(path, args, command, commits, takes, started, loads, table, sce
               "| change old | change new | status old / new |",
               "|---|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---|"]
     for (scene, backend), s in table:
-        ratio = "–" if s["ratio"] is None else f"{s['ratio']:.2f}" + (" **outside noise**" if s["outside_noise"] else "")
+        ratio = "–" if s["ratio"] is None else f"{s['ratio']:.2f}"
+        ratio += " **outside noise**" if s["outside_noise"] else ""
         spread = f"{s['old_spread']:.0%} / {s['new_spread']:.0%}" if s["old_spread"] is not None else "–"
         cpu = "–" if s["cpu_ratio"] is None else f"{s['cpu_ratio']:.2f}"
         lines.append(f"| {scene} | {backend} | {fmt_s(s['old_s'])} | {fmt_s(s['new_s'])} | {ratio} | {spread} | {cpu} "
@@ -297,11 +300,11 @@ def write_raw(f, raw):
     f.write("\n]}\n")
 
 
-def main():
+def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("old")
     p.add_argument("new")
-    p.add_argument("--rounds", type=int, default=5, help="interleaved runs of each binary (at least 3)")
+    p.add_argument("--rounds", type=int, default=7, help="interleaved runs of each binary (at least 3)")
     p.add_argument("--time-limit", type=float, default=10.0, help="seconds per solve (compare_bench --time_limit)")
     p.add_argument("--min-time", type=float, default=0.2, help="Google Benchmark's --benchmark_min_time")
     p.add_argument("--noise", type=float, default=0.10, help="relative change a separated row must exceed")
@@ -315,14 +318,48 @@ def main():
     args = p.parse_args()
     if args.rounds < 3:
         p.error("--rounds must be at least 3 (a median of fewer says nothing about noise)")
-    command = "/usr/bin/python3 bench/scripts/before_after.py " + " ".join(sys.argv[1:])
-    commits = {"old": git("rev-parse", args.old + "^{commit}"), "new": git("rev-parse", args.new + "^{commit}")}
-    takes = {"old": [], "new": []}
+    args.takes = {"old": [], "new": []}
     for spec in args.take:
         side, source, path = (spec.split(":", 2) + ["", ""])[:3]
-        if side not in takes or not source or not path:
+        if side not in args.takes or not source or not path:
             p.error(f"--take {spec}: expected old|new:COMMIT:PATH")
-        takes[side].append((git("rev-parse", source + "^{commit}"), path))
+        args.takes[side].append((git("rev-parse", source + "^{commit}"), path))
+    return args
+
+
+def common_scenes(binaries, wanted):
+    """The non-tower compare/ scenes of both binaries, reference scenes first, and
+    for each the backends of BACKENDS that both have."""
+    lists = {side: listed(binaries[side]) for side in ("old", "new")}
+    scenes = [s for s in lists["old"] if s in lists["new"] and kind(s) != "tower" and (not wanted or s in wanted)]
+    scenes.sort(key=lambda s: (kind(s) != "reference", s))
+    only = sorted(set(lists["old"]) ^ set(lists["new"]))
+    if only:
+        print("scenes in one version only (skipped):", ", ".join(only))
+    return scenes, {s: [b for b in BACKENDS if b in lists["old"][s] and b in lists["new"][s]] for s in scenes}
+
+
+def run_rounds(binaries, scenes, backends, args, runs_dir, log, loads):
+    """Old then new, scene by scene, `args.rounds` times; (scene, backend, side) -> records."""
+    records = {}
+    for rnd in range(args.rounds):
+        for scene in scenes:
+            for side in ("old", "new"):
+                path = os.path.join(runs_dir, f"{rnd}-{scene}-{side}.json")
+                loads.append(load_average())
+                for backend, rec in run_once(binaries[side], scene, backends[scene], args, path, log).items():
+                    rec["round"] = rnd
+                    records.setdefault((scene, backend, side), []).append(rec)
+            print(f"round {rnd + 1}/{args.rounds} {scene}: " + ", ".join(
+                f"{b} {records[(scene, b, 'old')][-1]['seconds']:.3g}/{records[(scene, b, 'new')][-1]['seconds']:.3g} s"
+                for b in backends[scene]) + f"  (load {loads[-1]})", flush=True)
+    return records
+
+
+def main():
+    args = parse_args()
+    command = "/usr/bin/python3 bench/scripts/before_after.py " + " ".join(sys.argv[1:])
+    commits = {"old": git("rev-parse", args.old + "^{commit}"), "new": git("rev-parse", args.new + "^{commit}")}
     os.makedirs(args.work, exist_ok=True)
     runs_dir = os.path.join(args.work, "runs-" + commits["old"][:12] + "-" + commits["new"][:12])
     shutil.rmtree(runs_dir, ignore_errors=True)
@@ -331,41 +368,21 @@ def main():
     binaries = {}
     for side in ("old", "new"):
         print(f"== build {side} {commits[side][:12]}", flush=True)
-        binaries[side] = build(commits[side], takes[side], args.work, args.jobs, log)
-    lists = {side: listed(binaries[side]) for side in ("old", "new")}
-    scenes = [s for s in lists["old"] if s in lists["new"] and kind(s) != "tower"]
-    if args.scenes:
-        wanted = args.scenes.split(",")
-        scenes = [s for s in scenes if s in wanted]
-    scenes.sort(key=lambda s: (kind(s) != "reference", s))
-    backends = {s: [b for b in BACKENDS if b in lists["old"][s] and b in lists["new"][s]] for s in scenes}
-    only = sorted(set(lists["old"]) ^ set(lists["new"]))
-    if only:
-        print("scenes in one version only (skipped):", ", ".join(only))
+        binaries[side] = build(commits[side], args.takes[side], args.work, args.jobs, log)
+    scenes, backends = common_scenes(binaries, [s for s in args.scenes.split(",") if s])
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     loads = [load_average()]
-    records = {}  # (scene, backend, side) -> [per-round record]
-    for rnd in range(args.rounds):
-        for scene in scenes:
-            for side in ("old", "new"):
-                path = os.path.join(runs_dir, f"{rnd}-{scene}-{side}.json")
-                loads.append(load_average())
-                got = run_once(binaries[side], scene, backends[scene], args, path, log)
-                for backend, rec in got.items():
-                    rec["round"] = rnd
-                    records.setdefault((scene, backend, side), []).append(rec)
-            print(f"round {rnd + 1}/{args.rounds} {scene}: " + ", ".join(
-                f"{b} {records[(scene, b, 'old')][-1]['seconds']:.3g}/{records[(scene, b, 'new')][-1]['seconds']:.3g} s"
-                for b in backends[scene]) + f"  (load {loads[-1]})", flush=True)
+    records = run_rounds(binaries, scenes, backends, args, runs_dir, log, loads)
     loads.append(load_average())
-    table = [((scene, b), summarise(records[(scene, b, "old")], records[(scene, b, "new")], args.time_limit, args.noise))
+    table = [((scene, b), summarise(records[(scene, b, "old")], records[(scene, b, "new")],
+                                    args.time_limit, args.noise))
              for scene in scenes for b in backends[scene]]
     mark_same_path(table)
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    write_report(args.out, args, command, commits, takes, started, loads, table, scenes)
+    write_report(args.out, args, command, commits, args.takes, started, loads, table, scenes)
     raw = {"provenance": {"command": command, "old_commit": commits["old"], "new_commit": commits["new"],
-                          "takes": takes, "date": started, "machine": machine(), "load_average_start": loads[0],
-                          "load_average_end": loads[-1], "load_averages": loads,
+                          "takes": args.takes, "date": started, "machine": machine(),
+                          "load_average_start": loads[0], "load_average_end": loads[-1], "load_averages": loads,
                           "settings": {"rounds": args.rounds, "time_limit_s": args.time_limit,
                                        "min_time_s": args.min_time, "noise": args.noise}},
            "runs": [dict(rec, scene=scene, backend=backend, side=side)
@@ -373,7 +390,6 @@ def main():
     with open(os.path.splitext(args.out)[0] + ".json", "w") as f:
         write_raw(f, raw)
     print(open(args.out).read())
-
 
 if __name__ == "__main__":
     main()
