@@ -146,28 +146,31 @@ TEST(IpoptSolver, OptionsPassThroughAndUnknownNamesAreRejected) {
   o.backend_options = {{"tol", "-1"}};
   EXPECT_THROW(solver.ValidateOptions(o), InputError);
 
-  // max_iter passed through wins over max_iterations.
+  // max_iter passed through wins over max_iterations (one run: start=scene).
   SolveOptions budget = no_shortcut();
-  budget.backend_options = {{"max_iter", "2"}};
+  budget.backend_options = {{"max_iter", "2"}, {"start", "scene"}};
   const SolveResult r = solver.Solve(perturbed(prism(6), 0.05, 10u), budget, DriverControls{false});
   EXPECT_EQ(r.status, Status::MaxIterations) << r.message;
   EXPECT_EQ(r.native_code, -1);  // Ipopt's Maximum_Iterations_Exceeded
   EXPECT_LE(r.stats.iterations, 2);
 }
 
-// The solution file's "details": Ipopt's own return code and iteration count.
+// The solution file's "details": Ipopt's own return code and iteration count;
+// with start=auto also the run from the scene's.
 TEST(IpoptSolver, DetailsCarryIpoptsReturnCodeAndIterations) {
   const IpoptSolver solver;
-  SolveOptions budget = no_shortcut();
-  budget.backend_options = {{"max_iter", "2"}};
-  for (const SolveOptions& o : {no_shortcut(), budget}) {
+  SolveOptions one_run = no_shortcut();
+  one_run.backend_options = {{"start", "scene"}};
+  SolveOptions budget = one_run;
+  budget.backend_options["max_iter"] = "2";
+  for (const SolveOptions& o : {one_run, budget}) {
     const SolveResult r = solver.Solve(perturbed(prism(6), 0.05, 10u), o, DriverControls{false});
     ASSERT_EQ(r.details.size(), 1u);
     const auto* d = dynamic_cast<const IpoptDetails*>(r.details.front().get());
     ASSERT_NE(d, nullptr);
     EXPECT_EQ(d->return_code, r.native_code);
     EXPECT_EQ(d->iterations, r.stats.iterations);
-    if (o.backend_options.empty()) {
+    if (o.backend_options.size() == 1) {
       EXPECT_EQ(r.status, Status::Converged) << r.message;
       EXPECT_TRUE(d->return_code == 0 || d->return_code == 1) << d->return_code;  // Solve_Succeeded, Solved_To_Acceptable_Level
     } else {
@@ -175,6 +178,21 @@ TEST(IpoptSolver, DetailsCarryIpoptsReturnCodeAndIterations) {
       EXPECT_EQ(d->to_json(), (nlohmann::json{{"return_code", -1}, {"iterations", r.stats.iterations}}));
     }
   }
+  // start=auto: both runs end at max_iter = 2, the run from the scene is the
+  // one reported, and the trace also holds alternating-gn's iterations.
+  SolveOptions automatic = no_shortcut();
+  automatic.backend_options = {{"max_iter", "2"}};
+  const SolveResult r = solver.Solve(perturbed(prism(6), 0.05, 10u), automatic, DriverControls{false});
+  EXPECT_EQ(r.status, Status::MaxIterations) << r.message;
+  const auto* d = dynamic_cast<const IpoptDetails*>(r.details.empty() ? nullptr : r.details.front().get());
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->to_json(), (nlohmann::json{{"return_code", -1},
+                                          {"iterations", 4},
+                                          {"cold_start_iterations", 2},
+                                          {"cold_start_kept", true}}));
+  ASSERT_FALSE(r.trace.empty());
+  EXPECT_EQ(r.stats.iterations, r.trace.back().iteration);
+  EXPECT_GT(r.stats.iterations, d->iterations);
 }
 
 TEST(IpoptSolver, GravityWithoutSupportIsInfeasible) {
@@ -196,7 +214,9 @@ TEST(IpoptSolver, StartOptionIsCheckedAndAWarmStartReachesTheSameOptimum) {
   // A perturbed prism without gravity has one local optimum near the scene:
   // from alternating-gn's equilibrium Ipopt must end where the cold start ends.
   const Structure s = perturbed(prism(5), 0.05, 7u);
-  const SolveResult cold = solver.Solve(s, no_shortcut(), DriverControls{false});
+  SolveOptions cold_options = no_shortcut();
+  cold_options.backend_options = {{"start", "scene"}};
+  const SolveResult cold = solver.Solve(s, cold_options, DriverControls{false});
   SolveOptions warm_options = no_shortcut();
   warm_options.backend_options = {{"start", "alternating-gn"}};
   const SolveResult warm = solver.Solve(s, warm_options, DriverControls{false});
