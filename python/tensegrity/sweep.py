@@ -165,6 +165,9 @@ def sweep(scenes, solvers, perturbations=None, seeds=None, client=None, time_lim
     client : dask.distributed.Client, optional
         Runs the solves on the client's workers; without it, on ``jobs`` local
         worker processes (default: the number of CPUs; 1 = in this process).
+        Each worker process, before its first solve, sets glibc's malloc to keep
+        freed buffers for the next solve (a Dask nanny's MALLOC_TRIM_THRESHOLD_
+        would otherwise return them to the system after every solve).
     time_limit : float
         Seconds per solve.
     tol, options, max_iterations
