@@ -28,11 +28,6 @@ namespace tensegrity::python {
 
 namespace {
 
-// glibc's own upper bound for its adaptive mmap threshold (4 MiB x sizeof(long)).
-constexpr int kWorkerMmapThresholdBytes = 32 * 1024 * 1024;
-// glibc's adaptive rule keeps the trim threshold at twice the mmap threshold.
-constexpr int kWorkerTrimThresholdBytes = 2 * kWorkerMmapThresholdBytes;
-
 // Fixes glibc's mmap and trim thresholds at the top of their adaptive range, so
 // that the buffers a solve frees are reused by the next allocation instead of
 // going back to the kernel and coming back as fresh zeroed pages. Dask's nanny
@@ -41,6 +36,10 @@ constexpr int kWorkerTrimThresholdBytes = 2 * kWorkerMmapThresholdBytes;
 // unmapped anew. Returns false where the C library has no such setting.
 bool keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
+  // glibc's own upper bound for its adaptive mmap threshold (4 MiB x sizeof(long)).
+  constexpr int kWorkerMmapThresholdBytes = 32 * 1024 * 1024;
+  // glibc's adaptive rule keeps the trim threshold at twice the mmap threshold.
+  constexpr int kWorkerTrimThresholdBytes = 2 * kWorkerMmapThresholdBytes;
   return mallopt(M_MMAP_THRESHOLD, kWorkerMmapThresholdBytes) == 1 &&
          mallopt(M_TRIM_THRESHOLD, kWorkerTrimThresholdBytes) == 1;
 #else
