@@ -20,9 +20,32 @@
 #include "model/verify.hpp"
 #include "python/src/bindings.hpp"
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 namespace tensegrity::python {
 
 namespace {
+
+// Fixes glibc's mmap and trim thresholds at the top of their adaptive range, so
+// that the buffers a solve frees are reused by the next allocation instead of
+// going back to the kernel and coming back as fresh zeroed pages. Dask's nanny
+// starts every worker with MALLOC_TRIM_THRESHOLD_=65536, which switches the
+// adaptation off: each factorization's large buffers are then mmapped and
+// unmapped anew. Returns false where the C library has no such setting.
+bool keep_freed_memory_for_reuse() {
+#if defined(__GLIBC__)
+  // glibc's own upper bound for its adaptive mmap threshold (4 MiB x sizeof(long)).
+  constexpr int kWorkerMmapThresholdBytes = 32 * 1024 * 1024;
+  // glibc's adaptive rule keeps the trim threshold at twice the mmap threshold.
+  constexpr int kWorkerTrimThresholdBytes = 2 * kWorkerMmapThresholdBytes;
+  return mallopt(M_MMAP_THRESHOLD, kWorkerMmapThresholdBytes) == 1 &&
+         mallopt(M_TRIM_THRESHOLD, kWorkerTrimThresholdBytes) == 1;
+#else
+  return false;
+#endif
+}
 
 py::dict stats_dict(const SolveResult& r) {
   py::dict d;
@@ -177,6 +200,9 @@ void bind_solve(py::module_& m) {
         py::arg("solver"), py::arg("tol"), py::arg("time_limit"), py::arg("max_iterations"), py::arg("options"));
 
   m.def("_forces", &run_forces, py::arg("scene"), py::arg("tol"));
+
+  m.def("_keep_freed_memory_for_reuse", &keep_freed_memory_for_reuse,
+        "Sets this process's malloc to keep and reuse freed buffers (for sweep worker processes).");
 
   m.def("_check_solution_file",
         [](const Structure& scene, const std::string& path, double tol) {

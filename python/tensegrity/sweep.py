@@ -108,6 +108,25 @@ def _run_one(task):
     return row
 
 
+_worker_prepared = False
+
+
+def _prepare_worker():
+    """Once per worker process: malloc keeps freed buffers for the next solve.
+    A Dask nanny sets MALLOC_TRIM_THRESHOLD_, which otherwise makes every large
+    buffer of a factorization a fresh mmap (page faults on every solve)."""
+    global _worker_prepared
+    if not _worker_prepared:
+        _core._keep_freed_memory_for_reuse()
+        _worker_prepared = True
+
+
+def _run_on_worker(task):
+    """_run_one in a worker process (a Dask worker or a local pool process)."""
+    _prepare_worker()
+    return _run_one(task)
+
+
 def _local_rows(tasks, jobs):
     if jobs == 1:
         return [_run_one(t) for t in tasks]
@@ -116,7 +135,7 @@ def _local_rows(tasks, jobs):
     try:
         context = multiprocessing.get_context("forkserver")
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-            return list(pool.map(_run_one, tasks, chunksize=1))
+            return list(pool.map(_run_on_worker, tasks, chunksize=1))
     finally:
         for k, v in saved.items():
             if v is None:
@@ -146,6 +165,9 @@ def sweep(scenes, solvers, perturbations=None, seeds=None, client=None, time_lim
     client : dask.distributed.Client, optional
         Runs the solves on the client's workers; without it, on ``jobs`` local
         worker processes (default: the number of CPUs; 1 = in this process).
+        Each worker process, before its first solve, sets glibc's malloc to keep
+        freed buffers for the next solve (a Dask nanny's MALLOC_TRIM_THRESHOLD_
+        would otherwise return them to the system after every solve).
     time_limit : float
         Seconds per solve.
     tol, options, max_iterations
@@ -170,7 +192,7 @@ def sweep(scenes, solvers, perturbations=None, seeds=None, client=None, time_lim
     tasks = [(name, scene, label, spec, seed, s, float(tol), limit, int(max_iterations), backend_options)
              for name, scene in named for label, spec in specs for seed in seed_list for s in solver_list]
     if client is not None:
-        futures = client.map(_run_one, tasks, pure=False)
+        futures = client.map(_run_on_worker, tasks, pure=False)
         rows = client.gather(futures)
     else:
         rows = _local_rows(tasks, jobs or os.cpu_count() or 1)

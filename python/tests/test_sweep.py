@@ -1,5 +1,10 @@
 """Sweeps: the same rows serially, on local worker processes and on a Dask LocalCluster."""
+import os
+import platform
+import subprocess
+import sys
 import threading
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -112,3 +117,37 @@ def test_threads_give_the_same_result():
     assert all(r.status == "converged" for r in results)
     assert all(np.array_equal(r.positions, results[0].positions) for r in results)
     assert all(np.array_equal(r.forces, results[0].forces) for r in results)
+
+
+# Run under MALLOC_TRIM_THRESHOLD_=65536, as a Dask nanny starts its workers: the
+# minor page faults of a repeated ipopt solve before and after _prepare_worker.
+_FAULTS_OF_A_REPEATED_SOLVE = """
+import resource
+import tensegrity as tg
+from tensegrity.sweep import _prepare_worker
+
+scene = tg.stress_case(tg.build_character(CHARACTER), "noise", 2, 0, 1)
+
+def faults_of_a_repeated_solve():
+    tg.solve(scene, solver="ipopt")
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    assert tg.solve(scene, solver="ipopt").status == "converged"
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+
+untuned = faults_of_a_repeated_solve()
+_prepare_worker()
+print(untuned, faults_of_a_repeated_solve())
+"""
+
+
+@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="the malloc thresholds are glibc's")
+def test_a_dask_style_worker_reuses_freed_buffers(root):
+    # With the nanny's trim threshold glibc maps each large buffer of the factorization
+    # anew and the kernel zero-fills it page by page; a prepared worker reuses its heap.
+    character = str(root / "data" / "characters" / "puppy.character.json")
+    env = dict(os.environ, MALLOC_TRIM_THRESHOLD_="65536", PYTHONPATH=str(Path(tg.__file__).parents[1]))
+    out = subprocess.run([sys.executable, "-c", f"CHARACTER = {character!r}\n" + _FAULTS_OF_A_REPEATED_SOLVE],
+                         env=env, capture_output=True, text=True, check=True).stdout
+    untuned, tuned = (int(x) for x in out.split())
+    assert untuned > 1000, out
+    assert tuned * 10 < untuned, out
