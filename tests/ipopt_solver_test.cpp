@@ -298,6 +298,20 @@ TEST(IpoptSolver, AutoStartCutsAWanderingRunFromTheScene) {
   EXPECT_FALSE(details->cold_start_kept);
 }
 
+// A scene already in equilibrium, solved without the driver's shortcut: the
+// warm answer is the scene to round-off, so start=auto runs nothing from the
+// scene (no answer can be closer than no change).
+TEST(IpoptSolver, AutoStartSkipsTheSceneRunWhenTheWarmAnswerIsTheScene) {
+  const Structure s = read_scene_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/prism-6.scene.json");
+  const SolveResult r = IpoptSolver().Solve(s, no_shortcut(), DriverControls{false});
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_LE(r.stats.geometry_change, 1e-9 * s.mean_element_length());
+  const auto* details = dynamic_cast<const IpoptDetails*>(r.details.empty() ? nullptr : r.details.front().get());
+  ASSERT_NE(details, nullptr);
+  EXPECT_EQ(details->cold_start_iterations, -1);
+  EXPECT_FALSE(details->to_json().contains("cold_start_iterations"));
+}
+
 // prestress=cap: the capped run restarts at the held optimum and is kept only
 // when verified and closer to the scene. On prism-7-gravity it moves to another,
 // closer local optimum; on prism-3-gravity the held optimum stays. At both the

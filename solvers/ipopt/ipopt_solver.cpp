@@ -42,6 +42,10 @@ constexpr int kColdIterationsPerWarmIteration = 5;
 // converges in tens of iterations or not at all, and the run from the scene
 // then needs the time.
 constexpr int kWarmIterationsAtMost = 300;
+// start=auto: a warm answer that moves the scene by less than this share of
+// the mean element length is the scene itself to round-off (the change cannot
+// be negative), so no run from the scene can end closer.
+constexpr double kNegligibleChangeOverLength = 1e-9;
 
 // The equilibrium alternating-gn reaches from the part's geometry, or an
 // empty result when it does not converge within the same settings.
@@ -297,6 +301,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   auto details = std::make_shared<IpoptDetails>();
   if (ipopt_options.start == IpoptStart::Scene) {
     held = runner.run(nlp, nullptr, nullptr, budget, true);
+    ipopt_iterations = held.iterations;
   } else {
     const SolveResult equilibrium = equilibrium_start(part, options);
     const bool have_equilibrium = equilibrium.positions.cols() == part.num_nodes();
@@ -310,11 +315,16 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
                    std::to_string(equilibrium.stats.iterations) + " iterations)";
     }
     if (ipopt_options.start == IpoptStart::AlternatingGn && have_equilibrium) {
+      ipopt_iterations = warm.iterations;
+      held = std::move(warm);
+    } else if (have_equilibrium && warm.status == Status::TimeLimit) {
+      // No time left for a run from the scene: the warm run's last point.
+      ipopt_iterations = warm.iterations;
       held = std::move(warm);
     } else if (!warm.ok()) {
       // start=auto without a warm answer: the scene with the whole budget.
       held = runner.run(nlp, nullptr, nullptr, budget, true);
-      ipopt_iterations += warm.iterations;
+      ipopt_iterations = warm.iterations + held.iterations;
       start_note.clear();
       if (ipopt_options.start == IpoptStart::Auto) {
         details->cold_start_iterations = held.iterations;
@@ -327,22 +337,22 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       const int cold_budget = std::min(
           budget, std::max(kColdIterationsAtLeast, kColdIterationsPerWarmIteration * warm.iterations));
       Eq5Run cold;
-      if (!recorder.out_of_time()) {
+      const bool warm_is_the_scene =
+          warm.check.geometry_change <= kNegligibleChangeOverLength * part.mean_element_length();
+      if (!recorder.out_of_time() && !warm_is_the_scene) {
         cold = runner.run(nlp, nullptr, nullptr, cold_budget, true);
         details->cold_start_iterations = cold.iterations;
       }
-      ipopt_iterations += warm.iterations + cold.iterations;
+      ipopt_iterations = warm.iterations + cold.iterations;
       // On a tie the scene's answer: the prestress cap below may continue
       // differently from two optima of the same change.
       const bool cold_kept = &closer(cold, warm) == &cold;
       details->cold_start_kept = cold_kept;
       held = cold_kept ? std::move(cold) : std::move(warm);
-      ipopt_iterations -= held.iterations;
-      if (cold_kept) start_note = " (started from the scene; the start at alternating-gn's equilibrium ended farther)";
+      if (cold_kept) start_note = " (started from the scene; the start at alternating-gn's equilibrium ended no closer)";
       else runner.record_answer(held);
     }
   }
-  ipopt_iterations += held.iterations;
   details->return_code = held.return_code;
 
   SolveResult result;

@@ -42,9 +42,9 @@ namespace tensegrity {
 // Where Ipopt starts: the scene geometry with the stress QP's forces, or the
 // equilibrium that alternating-gn finds (the objective still measures the
 // change from the scene geometry, so this is a start, not a different problem).
-// `Auto` runs both: first from alternating-gn's equilibrium, then from the
-// scene with an iteration budget of a few times the first run's, and keeps the
-// closer verified answer.
+// `Auto` runs both: first from alternating-gn's equilibrium, then (unless the
+// first answer is the scene to round-off) from the scene with an iteration
+// budget of a few times the first run's, and keeps the closer verified answer.
 enum class IpoptStart { Auto, Scene, AlternatingGn };
 
 // Under gravity, Eq. 5's mean cable force: held at kappa times the weight
