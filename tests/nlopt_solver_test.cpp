@@ -142,7 +142,14 @@ TEST(NloptSolver, BudgetsBecomeStatusesNotConvergence) {
   SolveOptions instant = options_with();
   instant.time_limit_s = 1e-9;
   const SolveResult late = solver.Solve(scene, instant, DriverControls{false});
-  EXPECT_EQ(late.status, Status::TimeLimit) << late.message;
+  // The clock is read between NLopt's evaluations: a fast machine may reach a
+  // verified point first, which is then a true `converged`; anything else is
+  // the time limit, never a claim the checker rejects.
+  if (late.status == Status::Converged) {
+    EXPECT_TRUE(verify(scene, late.positions, late.forces, SolveOptions{}.tolerance).ok) << late.message;
+  } else {
+    EXPECT_EQ(late.status, Status::TimeLimit) << late.message;
+  }
   EXPECT_TRUE(late.positions.allFinite());
   EXPECT_TRUE(late.forces.allFinite());
 }
