@@ -170,6 +170,12 @@ struct Eq5Run {
   bool ok() const { return status == Status::Converged && check.ok; }
 };
 
+// A start point of a run: positions and forces.
+struct Eq5Start {
+  const Eigen::Matrix3Xd& positions;
+  const Eigen::VectorXd& forces;
+};
+
 // What every run of one part solve shares: the part, its problem, the
 // settings and the trace, whose iteration and evaluation counts continue
 // from run to run.
@@ -187,13 +193,9 @@ struct Eq5Runner {
   // Runs `nlp` from `start` (the scene with sigma0 when null) for at most
   // `max_iterations`. `record_first`: whether its iteration 0 is a new record
   // (not when it repeats the point the trace ends at).
-  Eq5Run run(MinimalGeometryChangeNlp& nlp, const SolveResult* start, const Eigen::VectorXd* start_forces,
-             int max_iterations, bool record_first) {
+  Eq5Run run(MinimalGeometryChangeNlp& nlp, const Eq5Start* start, int max_iterations, bool record_first) {
     DimensionlessEq5 problem(nlp, sigma0);
-    if (start != nullptr) {
-      problem.set_start(nlp.equilibrium().free_nodes().gather(start->positions),
-                        start_forces != nullptr ? *start_forces : start->forces);
-    }
+    if (start != nullptr) problem.set_start(nlp.equilibrium().free_nodes().gather(start->positions), start->forces);
     IpoptSettings run_settings = settings;
     run_settings.options.insert(run_settings.options.begin(), IpoptOption{"max_iter", max_iterations});
     const int iteration_offset = next_iteration() - (record_first ? 0 : 1);
@@ -218,7 +220,7 @@ struct Eq5Runner {
       r.forces = nlp.forces(problem.final_point());
     } else {
       r.positions = start != nullptr ? start->positions : part.positions;
-      r.forces = start_forces != nullptr ? *start_forces : (start != nullptr ? start->forces : sigma0);
+      r.forces = start != nullptr ? start->forces : sigma0;
     }
     r.check = verify(part, r.positions, r.forces, options.tolerance);
     return r;
@@ -300,7 +302,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   int ipopt_iterations = 0;  // of every run
   auto details = std::make_shared<IpoptDetails>();
   if (ipopt_options.start == IpoptStart::Scene) {
-    held = runner.run(nlp, nullptr, nullptr, budget, true);
+    held = runner.run(nlp, nullptr, budget, true);
     ipopt_iterations = held.iterations;
   } else {
     const SolveResult equilibrium = equilibrium_start(part, options);
@@ -310,7 +312,8 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       for (const TracePoint& p : equilibrium.trace) recorder.record(p);
       const int warm_budget =
           ipopt_options.start == IpoptStart::Auto ? std::min(budget, kWarmIterationsAtMost) : budget;
-      warm = runner.run(nlp, &equilibrium, nullptr, warm_budget, false);
+      const Eq5Start from{equilibrium.positions, equilibrium.forces};
+      warm = runner.run(nlp, &from, warm_budget, false);
       start_note = " (started from alternating-gn's equilibrium after " +
                    std::to_string(equilibrium.stats.iterations) + " iterations)";
     }
@@ -323,7 +326,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       held = std::move(warm);
     } else if (!warm.ok()) {
       // start=auto without a warm answer: the scene with the whole budget.
-      held = runner.run(nlp, nullptr, nullptr, budget, true);
+      held = runner.run(nlp, nullptr, budget, true);
       ipopt_iterations = warm.iterations + held.iterations;
       start_note.clear();
       if (ipopt_options.start == IpoptStart::Auto) {
@@ -340,7 +343,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       const bool warm_is_the_scene =
           warm.check.geometry_change <= kNegligibleChangeOverLength * part.mean_element_length();
       if (!recorder.out_of_time() && !warm_is_the_scene) {
-        cold = runner.run(nlp, nullptr, nullptr, cold_budget, true);
+        cold = runner.run(nlp, nullptr, cold_budget, true);
         details->cold_start_iterations = cold.iterations;
       }
       ipopt_iterations = warm.iterations + cold.iterations;
@@ -367,9 +370,8 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
     // The capped problem restarted at the held optimum: a feasible start, so
     // Ipopt stays near it instead of wandering as it does from the scene.
     MinimalGeometryChangeNlp capped_nlp(part, scale, PrestressRow::Cap);
-    SolveResult held_answer;
-    held_answer.positions = held.positions;
-    const Eq5Run capped = runner.run(capped_nlp, &held_answer, &held.forces, budget, false);
+    const Eq5Start from{held.positions, held.forces};
+    const Eq5Run capped = runner.run(capped_nlp, &from, budget, false);
     ipopt_iterations += capped.iterations;
     if (&closer(held, capped) == &capped) {
       result.positions = capped.positions;
