@@ -84,10 +84,23 @@ int wait_program(pid_t pid, double limit_s) {
   }
 }
 
+// The text of a /proc/PID/stat file, or "" once the process is gone: a
+// process that exits between open and read makes read() fail with ESRCH,
+// which std::ifstream would turn into an exception.
+std::string read_proc_stat(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) return {};
+  constexpr std::size_t kStatBytes = 4096;  // one stat line is far shorter
+  std::string text(kStatBytes, '\0');
+  const ssize_t n = ::read(fd, text.data(), text.size());
+  ::close(fd);
+  text.resize(n > 0 ? static_cast<std::size_t>(n) : 0);
+  return text;
+}
+
 // The state letter of /proc/PID/stat (R, S, Z, ...), or 0 when there is no such process.
 char process_state(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string text = read_proc_stat("/proc/" + std::to_string(pid) + "/stat");
   const std::size_t close = text.rfind(')');
   return close == std::string::npos || close + 2 >= text.size() ? 0 : text[close + 2];
 }
@@ -97,8 +110,7 @@ std::vector<pid_t> children_of(pid_t parent) {
   for (const auto& entry : fs::directory_iterator("/proc")) {
     const std::string name = entry.path().filename().string();
     if (name.find_first_not_of("0123456789") != std::string::npos) continue;
-    std::ifstream in(entry.path() / "stat");
-    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string text = read_proc_stat((entry.path() / "stat").string());
     const std::size_t close = text.rfind(')');
     if (close == std::string::npos) continue;
     std::istringstream rest(text.substr(close + 2));
