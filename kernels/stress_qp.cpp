@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "kernels/stress_qp_impl.hpp"
@@ -358,12 +359,37 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
   return report(st);
 }
 
+namespace {
+
+std::string short_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", v);
+  return text;
+}
+
+}  // namespace
+
+// Without certify_optimum every KKT point counts; with it, an objective at
+// rounding level needs no bound, and any other needs one near it.
+bool StressQp::certified(SolveState& st, StressQpResult& result) {
+  if (!options_.certify_optimum) return true;
+  Impl& q = *impl_;
+  const double rounding = stress_qp_detail::PolishConstants::kCgRoundingFactor * kEps * q.gradient_scale(st, q.s);
+  if (result.objective <= rounding * rounding) {
+    result.objective_lower_bound = result.objective;
+    return true;
+  }
+  result.objective_lower_bound = q.objective_lower_bound(st);
+  result.factorizations = st.factorizations;
+  return result.objective_lower_bound >= stress_qp_detail::CertificateConstants::kCertifiedFraction * result.objective;
+}
+
 // The result, from a fresh evaluation of the returned forces. The KKT
 // conditions are those of the objective without the mu term: a free force
 // must have a zero gradient (the polish removes the mu bias there), a force at
 // a bound a gradient pointing out of the box, allowing the mu term's pull
 // mu |sigma_i - centre_i| there (a margin-sized force: negligible).
-StressQpResult StressQp::report(const SolveState& st) {
+StressQpResult StressQp::report(SolveState& st) {
   Impl& q = *impl_;
   const int m = q.m;
   StressQpResult result;
@@ -407,14 +433,20 @@ StressQpResult StressQp::report(const SolveState& st) {
     result.status = StressQpStatus::NumericalFailure;
     result.message = eq_.degenerate() ? "a zero-length or non-finite element has no direction"
                                       : "a factorization failed or a value was not finite";
-  } else if (result.kkt_error <= st.tolerance) {
-    result.status = StressQpStatus::Optimal;
-    result.message = "KKT conditions met to " + std::to_string(result.kkt_error) + " (tolerance " +
-                     std::to_string(st.tolerance) + ")";
-  } else {
+  } else if (result.kkt_error > st.tolerance) {
     result.status = StressQpStatus::IterationLimit;
-    result.message = "stopped before the KKT conditions were met (error " + std::to_string(result.kkt_error) +
-                     ", tolerance " + std::to_string(st.tolerance) + ")";
+    result.message = "stopped before the KKT conditions were met (error " + short_number(result.kkt_error) +
+                     ", tolerance " + short_number(st.tolerance) + ")";
+  } else if (!certified(st, result)) {
+    result.status = StressQpStatus::IterationLimit;
+    result.message = "KKT conditions met to " + short_number(result.kkt_error) +
+                     ", but not certified: the objective's lower bound is " +
+                     short_number(result.objective_lower_bound) + " against " + short_number(result.objective) +
+                     " (an ill-conditioned free set: the optimum may be much lower)";
+  } else {
+    result.status = StressQpStatus::Optimal;
+    result.message = "KKT conditions met to " + short_number(result.kkt_error) + " (tolerance " +
+                     short_number(st.tolerance) + ")";
   }
   result.optimal = result.status == StressQpStatus::Optimal;
   return result;

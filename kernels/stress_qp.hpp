@@ -38,8 +38,10 @@
 //
 // Status: `Optimal` means the KKT conditions of the mu-free objective hold to
 // the tolerance (a free force has zero gradient, a force at a bound a gradient
-// pointing out of the box); only then is a positive residual a proof that
-// the geometry is not a tensegrity. `IterationLimit` is no such proof.
+// pointing out of the box) and, with certify_optimum, that a lower bound
+// proves the optimum's objective at least a quarter of the returned one; only
+// then is a positive residual a proof that the geometry is not a tensegrity.
+// `IterationLimit` is no such proof.
 //
 // Limits: where [A; w c^T] has a null space only mu picks among equally good
 // forces, and double precision fixes that choice to about eps / mu relative;
@@ -75,6 +77,17 @@ struct StressQpOptions {
   // After this many projected-Newton iterations without settling, one
   // Mehrotra interior-point phase (see stress_qp.cpp); negative: never.
   int interior_point_after = 20;
+  // Certify an optimum with a positive residual before calling it Optimal:
+  // one least-squares step on the free set, unconstrained, gives forces
+  // sigma' at which the gradient vanishes on the free set; when the gradient
+  // at sigma' also points out of the box at every held bound, the objective
+  // at sigma' bounds the objective of every force vector in the box from
+  // below (weak duality, with the residual at sigma' as the dual point). On
+  // an ill-conditioned free set (near-mechanisms) a tiny gradient does not
+  // mean a small distance to the optimum, and this bound is what tells the
+  // two apart. One conjugate-gradient solve per call; off by default since
+  // only a claim of infeasibility needs it.
+  bool certify_optimum = false;
   bool IsValid() const;              // mu > 0, w >= 0, all finite, counts >= 0
 };
 
@@ -106,6 +119,10 @@ struct StressQpResult {
   // of the box, allowed the mu term's pull there), relative to the scale of
   // the tolerance above.
   double kkt_error = 0.0;
+  // With certify_optimum: a proven lower bound on `objective` over the box
+  // (-infinity when none was found; `objective` itself at rounding level).
+  // Otherwise 0, which bounds any objective.
+  double objective_lower_bound = 0.0;
   bool optimal = false;           // status == Optimal
 };
 
@@ -133,7 +150,8 @@ class StressQp {
  private:
   struct Impl;
   StressQpResult solve_from(const Eigen::VectorXd& sigma0, bool warm_start);
-  StressQpResult report(const stress_qp_detail::SolveState& st);
+  StressQpResult report(stress_qp_detail::SolveState& st);
+  bool certified(stress_qp_detail::SolveState& st, StressQpResult& result);
   const Equilibrium& eq_;
   ForceScale scale_;
   StressQpOptions options_;

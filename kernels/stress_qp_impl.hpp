@@ -70,6 +70,13 @@ struct PolishConstants {
   static constexpr double kSlowProgress = 0.01;
 };
 
+// The certificate of an optimum (StressQpOptions::certify_optimum).
+struct CertificateConstants {
+  // Optimal needs the lower bound at least this fraction of the objective:
+  // the optimum's residual is then at least half the returned one.
+  static constexpr double kCertifiedFraction = 0.25;
+};
+
 struct Impl;
 
 // The state of one solve: inputs fixed for the solve, the running flags of
@@ -165,6 +172,9 @@ struct Impl {
                      double scale, Eigen::VectorXd& x);
   // Removes the mu bias on the free set (stress_qp_polish.cpp).
   void polish(const StressQpOptions& options, SolveState& st);
+  // A lower bound on the mu-free objective over the whole box, or -infinity
+  // when none is found (stress_qp_polish.cpp). Leaves s unchanged.
+  double objective_lower_bound(SolveState& st);
 };
 
 }  // namespace stress_qp_detail

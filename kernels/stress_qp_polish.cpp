@@ -108,5 +108,38 @@ void Impl::polish(const StressQpOptions& options, SolveState& st) {
   }
 }
 
+// Weak duality for min F(x) = |B x + b|^2 over the box (B = [A; w c^T]): for
+// any y, F(x) >= 2 y^T (B x + b) - |y|^2. With y the residual at x' = s + d,
+// d the unconstrained least-squares step on the free set, B^T y vanishes on
+// the free set, and where it points out of the box at every held bound the
+// minimum of the right-hand side over the box is F(x') itself.
+double Impl::objective_lower_bound(SolveState& st) {
+  const SparseMatrix& A = *st.A;
+  for (int i = 0; i < m; ++i) held[i] = s[i] <= lower[i] || s[i] >= upper[i];
+  if (!(factorization_valid && held == factored_held)) {
+    ++st.factorizations;
+    if (!factorize(held)) return -kInf;
+  }
+  evaluate(st, s, 0.0);
+  const double scale = gradient_scale(st, s);
+  for (int i = 0; i < m; ++i) rhs[i] = held[i] ? 0.0 : -g[i];
+  if (!conjugate_gradients(*this, A, rhs, C::kCgRoundingFactor * kEps * scale, d)) return -kInf;
+  trial = s;
+  for (int i = 0; i < m; ++i)
+    if (!held[i]) trial[i] += d[i];
+  evaluate(st, trial, 0.0);
+  const double e = c.dot(trial) - target;
+  const double bound = r.squaredNorm() + w2 * e * e;
+  const double allowed = st.tolerance * scale;
+  bool dual_feasible = std::isfinite(bound);
+  for (int i = 0; i < m && dual_feasible; ++i) {
+    if (!held[i]) dual_feasible = std::abs(g[i]) <= allowed;
+    else if (s[i] <= lower[i] && s[i] < upper[i]) dual_feasible = g[i] >= -allowed;
+    else if (s[i] >= upper[i] && s[i] > lower[i]) dual_feasible = g[i] <= allowed;
+  }
+  evaluate(st, s, 0.0);  // r and g of the returned forces again
+  return dual_feasible ? bound : -kInf;
+}
+
 }  // namespace stress_qp_detail
 }  // namespace tensegrity

@@ -19,6 +19,12 @@
 namespace tensegrity {
 namespace {
 
+std::string short_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", v);
+  return text;
+}
+
 using Clock = std::chrono::steady_clock;
 
 // The remaining budget a part gets is never below this, so that a part late in
@@ -75,20 +81,26 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   const ForceScale scale = make_force_scale(part, options.margin_fraction);
   Equilibrium eq(part);
   eq.set_positions(part.positions);
-  StressQp qp(eq, scale);
+  StressQpOptions qp_options;
+  qp_options.certify_optimum = true;  // a claim of infeasibility needs the proof
+  StressQp qp(eq, scale, qp_options);
   const StressQpResult qr = qp.solve();
   const Verification v = verify(part, part.positions, qr.sigma, options.tolerance);
+  // The certified optimum's residual is at least this much of the returned one.
+  const double proven_fraction =
+      qr.objective > 0.0 ? std::sqrt(std::max(0.0, qr.objective_lower_bound) / qr.objective) : 1.0;
   SolveResult r;
   if (v.ok) {
     r = unchanged_part(part, qr.sigma, Status::Converged, "already in equilibrium at the scene geometry");
-  } else if (qr.status == StressQpStatus::Optimal) {
+  } else if (qr.status == StressQpStatus::Optimal && v.relative_residual * proven_fraction > options.tolerance) {
     r = unchanged_part(part, qr.sigma, Status::Infeasible,
                        "the scene geometry is not a tensegrity (the stress QP's optimum has relative residual " +
-                           std::to_string(v.relative_residual) + "; " + qr.message + ")");
-  } else if (qr.status == StressQpStatus::IterationLimit) {
+                           short_number(v.relative_residual) + ", proven at least " +
+                           short_number(v.relative_residual * proven_fraction) + "; " + qr.message + ")");
+  } else if (qr.status != StressQpStatus::NumericalFailure) {
     r = unchanged_part(part, qr.sigma, Status::MaxIterations,
-                       "the stress QP stopped before certifying its optimum (relative residual " +
-                           std::to_string(v.relative_residual) + "; " + qr.message + ")");
+                       "the stress QP stopped without a proof either way (relative residual " +
+                           short_number(v.relative_residual) + "; " + qr.message + ")");
   } else {
     r = unchanged_part(part, qr.sigma, Status::NumericalError, "the stress QP failed: " + qr.message);
   }

@@ -152,8 +152,6 @@ TEST(ForceScaleGravity, EquilibriaOfTheMassFamilyStand) {
       ++standing;
       // Never a false proof: the geometry stands, so `forces` must not say infeasible.
       const SolveResult forces = solve_forces_only(stands, SolveOptions{});
-      // A known gap: one of these equilibria (relative residual just above the
-      // tolerance) is still called infeasible; the others stop short honestly.
       false_claims += forces.status == Status::Infeasible;
       if (forces.status != Status::Converged) continue;
       expect_stands_unchanged(stands);
@@ -162,8 +160,8 @@ TEST(ForceScaleGravity, EquilibriaOfTheMassFamilyStand) {
   }
   EXPECT_GE(standing, 10);
   std::printf("%d of %d standing equilibria recognised by forces\n", recognised, standing);
-  EXPECT_GE(recognised, standing - 4);
-  EXPECT_LE(false_claims, 1);
+  EXPECT_GE(recognised, standing - 1);
+  EXPECT_EQ(false_claims, 0);
 }
 
 // Towers of `generate tower` (8 struts per layer, 50 cables per layer): the

@@ -17,6 +17,7 @@
 #include "formulations/force_scale.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/verify.hpp"
+#include "solvers/solver.hpp"
 
 namespace tensegrity {
 namespace {
@@ -440,37 +441,53 @@ TEST(StressQp, ProximalWarmSolveKeepsTheWarmStartAmongEquallyGoodForces) {
 // bounds and a random normalisation row make a generic bounded least-squares
 // problem, checked against the enumeration above (mu-free objective, which the
 // polish reaches when [A; w c^T] has full column rank).
+// A random bounded least-squares instance on a small structure under gravity:
+// bounds of every kind (two-sided, one-sided, none), a normalisation row.
+struct BoundedInstance {
+  Structure s;
+  ForceScale scale;
+};
+BoundedInstance random_bounded_instance(std::mt19937& rng) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  BoundedInstance out;
+  Structure& s = out.s;
+  const int nodes = 6;
+  for (int i = 0; i < nodes; ++i)
+    s.add_node({unit(rng), unit(rng), unit(rng)}, i >= 4, 0.5 + 0.5 * unit(rng));
+  s.gravity = Eigen::Vector3d(0.3 * unit(rng), 0.3 * unit(rng), -9.81);
+  std::vector<std::pair<int, int>> pairs;
+  for (int a = 0; a < nodes; ++a)
+    for (int b = a + 1; b < nodes; ++b)
+      if (!(a >= 4 && b >= 4)) pairs.emplace_back(a, b);
+  std::shuffle(pairs.begin(), pairs.end(), rng);
+  const int m = 10;
+  for (int e = 0; e < m; ++e)
+    s.add_element(pairs[e].first, pairs[e].second, e % 3 == 0 ? ElementKind::Strut : ElementKind::Cable);
+  out.scale = make_force_scale(s);
+  ForceScale& scale = out.scale;
+  for (int e = 0; e < m; ++e) {
+    const double a = 3.0 * unit(rng), b = 3.0 * unit(rng);
+    switch (e % 4) {
+      case 0: scale.lower[e] = std::min(a, b); scale.upper[e] = std::max(a, b); break;
+      case 1: scale.lower[e] = a; scale.upper[e] = kInf; break;
+      case 2: scale.lower[e] = -kInf; scale.upper[e] = a; break;
+      default: scale.lower[e] = -kInf; scale.upper[e] = kInf; break;
+    }
+  }
+  return out;
+}
+
 TEST(StressQp, RandomBoundedLeastSquaresMatchesBruteForce) {
   std::mt19937 rng(2024);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   int with_active_bounds = 0;
   for (int instance = 0; instance < 40; ++instance) {
     SCOPED_TRACE("instance " + std::to_string(instance));
-    Structure s;
-    const int nodes = 6;
-    for (int i = 0; i < nodes; ++i)
-      s.add_node({unit(rng), unit(rng), unit(rng)}, i >= 4, 0.5 + 0.5 * unit(rng));
-    s.gravity = Eigen::Vector3d(0.3 * unit(rng), 0.3 * unit(rng), -9.81);
-    std::vector<std::pair<int, int>> pairs;
-    for (int a = 0; a < nodes; ++a)
-      for (int b = a + 1; b < nodes; ++b)
-        if (!(a >= 4 && b >= 4)) pairs.emplace_back(a, b);
-    std::shuffle(pairs.begin(), pairs.end(), rng);
-    const int m = 10;
-    for (int e = 0; e < m; ++e)
-      s.add_element(pairs[e].first, pairs[e].second, e % 3 == 0 ? ElementKind::Strut : ElementKind::Cable);
+    const BoundedInstance inst = random_bounded_instance(rng);
+    const Structure& s = inst.s;
+    const ForceScale& scale = inst.scale;
+    const int m = s.num_elements();
     Equilibrium eq(s);
-
-    ForceScale scale = make_force_scale(s);
-    for (int e = 0; e < m; ++e) {
-      const double a = 3.0 * unit(rng), b = 3.0 * unit(rng);
-      switch (e % 4) {
-        case 0: scale.lower[e] = std::min(a, b); scale.upper[e] = std::max(a, b); break;
-        case 1: scale.lower[e] = a; scale.upper[e] = kInf; break;
-        case 2: scale.lower[e] = -kInf; scale.upper[e] = a; break;
-        default: scale.lower[e] = -kInf; scale.upper[e] = kInf; break;
-      }
-    }
     StressQpOptions options;
     options.normalisation_weight = 0.7;
     StressQp qp(eq, scale, options);
@@ -493,6 +510,72 @@ TEST(StressQp, RandomBoundedLeastSquaresMatchesBruteForce) {
     EXPECT_LE((again.sigma - reference).lpNorm<Eigen::Infinity>(), 1e-9 * size);
   }
   EXPECT_GE(with_active_bounds, 20);  // the instances do exercise the bounds
+}
+
+// The certificate of an optimum (certify_optimum): on the random instances
+// above, whose optima have positive residuals, the lower bound is proven and
+// lies between a quarter of the brute-force optimum's objective and that
+// objective itself (weak duality: no force vector in the box does better).
+TEST(StressQp, CertifiedLowerBoundLiesBelowTheBruteForceOptimum) {
+  std::mt19937 rng(2024);
+  int positive = 0;
+  for (int instance = 0; instance < 40; ++instance) {
+    SCOPED_TRACE("instance " + std::to_string(instance));
+    const BoundedInstance inst = random_bounded_instance(rng);
+    Equilibrium eq(inst.s);
+    StressQpOptions options;
+    options.normalisation_weight = 0.7;
+    options.certify_optimum = true;
+    StressQp qp(eq, inst.scale, options);
+    const StressQpResult r = qp.solve();
+    EXPECT_TRUE(r.optimal) << r.message;
+    const DenseProblem d = dense_problem(eq, inst.scale, options.normalisation_weight);
+    const Eigen::VectorXd reference = brute_force(d, 0.0);
+    const Eigen::VectorXd res = d.A * reference + d.f;
+    const double e_ref = d.c.dot(reference) - d.t;
+    const double optimum = res.squaredNorm() + d.w2 * e_ref * e_ref;
+    EXPECT_LE(r.objective_lower_bound, optimum * (1.0 + 1e-9) + 1e-15);
+    EXPECT_GE(r.objective_lower_bound, 0.25 * r.objective);
+    positive += optimum > 1e-6;
+  }
+  EXPECT_GE(positive, 30);  // the bound is exercised away from zero
+}
+
+// The 10-layer tower of `generate tower` (580 elements) at an equilibrium:
+// its free set is nearly singular, so the stress QP stops at points whose
+// gradient is tiny while the residual is still 1e-6 of the scale. With a
+// looser KKT tolerance those points pass the gradient test; certified, none
+// of them is called optimal, and every bound stays below its objective.
+TEST(StressQp, CertificateRejectsKktPointsOfANearMechanism) {
+  scenes::TowerParameters p;
+  p.layers = 10;
+  p.cables = 500;
+  const Structure tower = scenes::make_prism_tower(p);
+  const SolveResult solved = make_solver("alternating-gn")->Solve(tower, SolveOptions{}, {});
+  ASSERT_EQ(solved.status, Status::Converged) << solved.message;
+  Structure s = tower;
+  s.positions = solved.positions;
+  Equilibrium eq(s);
+  const ForceScale scale = make_force_scale(s);
+  constexpr double kScaleTolerance = 1e-8;
+  int rejected = 0, solves = 0;
+  for (double kkt_tolerance : {1e-7, 1e-8, 1e-9, 1e-10, 1e-11}) {
+    StressQpOptions options;
+    options.optimality_tolerance = kkt_tolerance;
+    options.certify_optimum = true;
+    StressQp qp(eq, scale, options);
+    const StressQpResult r = qp.solve();
+    const Verification v = verify(s, s.positions, r.sigma, kScaleTolerance);
+    SCOPED_TRACE("KKT tolerance " + std::to_string(kkt_tolerance) + ": " + r.message);
+    ++solves;
+    EXPECT_LE(r.objective_lower_bound, r.objective);
+    if (r.optimal) {
+      EXPECT_TRUE(v.ok) << "relative residual " << v.relative_residual;
+    }
+    rejected += r.message.find("not certified") != std::string::npos;
+  }
+  EXPECT_GE(rejected, 1) << "no KKT point to reject: the test no longer exercises the certificate";
+  std::printf("%d of %d KKT points rejected by the certificate\n", rejected, solves);
 }
 
 TEST(StressQp, FailuresAreReportedNotThrown) {
