@@ -34,7 +34,8 @@
 //  - a polish (stress_qp_polish.cpp): on the final free set, conjugate
 //    gradients preconditioned by the factorization minimise the objective
 //    without the mu term, so that a tensegrity reaches a residual at rounding
-//    level along near-null directions of A as well.
+//    level along near-null directions of A as well; with polish_to_optimum,
+//    an active-set method on the mu-free objective from that free set.
 //
 // Status: `Optimal` means the KKT conditions of the mu-free objective hold to
 // the tolerance (a free force has zero gradient, a force at a bound a gradient
@@ -66,6 +67,14 @@ struct StressQpOptions {
   // the rounding level of the gradient itself.
   double optimality_tolerance = 1e-13;
   int max_polish_steps = 30;         // polish steps (conjugate-gradient solves) on the final free set
+  // The polish as a complete active-set method (Lawson-Hanson style: bounds
+  // join the held set and, at each free set's optimum, the most inward-pointing
+  // held bound is released) instead of a polish of the final free set alone.
+  // Reaches the mu-free optimum on near-mechanisms, where projected Newton
+  // stops on a wrong active set, at the price of more steps (raise
+  // max_polish_steps with it). Off by default: Algorithm 1 re-solves at once
+  // after a geometry change, and needs only the polish of the free set.
+  bool polish_to_optimum = false;
   // Centre the mu term on the (projected) warm start instead of the origin:
   // among equally good forces, those closest to the warm start. On
   // near-mechanisms the pull towards the origin moves many forces along

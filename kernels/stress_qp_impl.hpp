@@ -172,6 +172,8 @@ struct Impl {
                      double scale, Eigen::VectorXd& x);
   // Removes the mu bias on the free set (stress_qp_polish.cpp).
   void polish(const StressQpOptions& options, SolveState& st);
+  void polish_free_set(const StressQpOptions& options, SolveState& st);
+  void polish_to_optimum(const StressQpOptions& options, SolveState& st);
   // A lower bound on the mu-free objective over the whole box, or -infinity
   // when none is found (stress_qp_polish.cpp). Leaves s unchanged.
   double objective_lower_bound(SolveState& st);
