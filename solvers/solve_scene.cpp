@@ -284,13 +284,22 @@ SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, c
       return unchanged_part(part, reference_forces(part, make_force_scale(part, part_options.margin_fraction)),
                             Status::Infeasible, "gravity acts on a part without fixed nodes: no equilibrium exists");
     Eigen::VectorXd initial_forces;
+    SolveOptions backend_options = part_options;
     if (controls.skip_if_in_equilibrium) {
+      const auto checked = std::chrono::steady_clock::now();
       SolveResult shortcut = forces_at_own_geometry(part, part_options);
       if (shortcut.status == Status::Converged) return shortcut;
+      // The check's time counts against the part's limit.
+      backend_options.time_limit_s -= seconds_since(checked);
+      if (!(backend_options.time_limit_s > 0.0)) {
+        shortcut.status = Status::TimeLimit;
+        shortcut.message = "time budget spent checking whether the scene already stands";
+        return shortcut;
+      }
       if (shortcut.forces.size() == part.num_elements() && shortcut.forces.allFinite())
         initial_forces = std::move(shortcut.forces);
     }
-    return DoSolve(PartProblem{part, part_options, initial_forces}, parsed.get());
+    return DoSolve(PartProblem{part, backend_options, initial_forces}, parsed.get());
   };
   return solve_by_parts(scene, options, solve_part, on_iteration);
 }
