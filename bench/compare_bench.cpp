@@ -24,7 +24,7 @@
 //   --chain_sizes=2,4,...  sizes of the chain family (default 2,4,8,16,32,64,128; empty: none)
 //   --tower_layers=2,4,... layers of the tower family (default 2,4,8,16,32; empty: none)
 //   --gravity_tower_layers=10,20,...  layers of the gravity tower family
-//                          (default 10,20,40; the sizes are 10,20,40,80,160; empty: none)
+//                          (default 10,20,40; the whole family is 10,20,40,80,160; empty: none)
 //
 // Counters (per benchmark, from the last timed run unless said otherwise):
 //   t_1e-4 ... t_1e-10   seconds until the trace first reaches that relative

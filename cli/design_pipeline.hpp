@@ -16,7 +16,8 @@
 
 namespace tensegrity::cli {
 
-// The 2 mm cord: the 1 mm one cannot carry any of the shipped characters (README).
+// The 2 mm cord: the 1 mm one carries the duck but neither the scorpion nor the
+// puppy (docs/CHARACTERS.md).
 inline constexpr const char* kDefaultMaterial = "elastic-cord-2mm";
 
 struct DesignRequest {

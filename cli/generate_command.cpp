@@ -3,7 +3,8 @@
 // each plain and with gravity, masses and fixed bottom nodes).
 // tensegrity generate tower [--gravity] [--noise X] [--seed S] --out FILE: the
 // benchmark's large tower (scenes/towers.hpp) as built, before form
-// finding; data/bench/tower-*.scene.json are its solved equilibria (README).
+// finding; data/bench/tower-*.scene.json are Ipopt equilibria of it, solved once
+// and stored (docs/USER-GUIDE.md, generate).
 #include <filesystem>
 #include <iostream>
 #include <memory>

@@ -1,4 +1,4 @@
-// tensegrity import FILE --out SCENE [--format ntrt-yaml] [--length-scale S] [--fix-lowest K] [--gravity]
+// tensegrity import FILE --out SCENE [--format ntrt-yaml] [--length-scale S] [--fix-lowest K]
 #include <algorithm>
 #include <memory>
 #include <numeric>

@@ -1,5 +1,5 @@
 #pragma once
-// The fabrication issue's end-to-end check (paper, section 5.1): a character
+// The fabrication end-to-end check (paper, section 5.1): a character
 // built with the designed rest lengths settles at its designed shape under
 // gravity, while the paper's baseline, every cable's rest length one constant
 // fraction F of its deformed length, does not settle there for any F.

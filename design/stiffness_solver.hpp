@@ -29,7 +29,7 @@ struct StiffnessResult {
   Eigen::VectorXd bound_multipliers;  // m, z = z_lower - z_upper
   double objective = 0.0;             // 1/2 sum w (sigma - t)^2 (N^2)
   double residual = 0.0;              // max free-node net force (N), model/verify
-  double relative_residual = 0.0;     // CONTRACT.md load scale
+  double relative_residual = 0.0;     // over the load scale (docs/FORMATS.md, Solution file)
   double max_target_deviation = 0.0;  // max over weighted elements |sigma - t| (N)
   int iterations = 0;                 // Ipopt iterations
   int active_bounds = 0;

@@ -4,7 +4,7 @@
 # again built with AddressSanitizer + UndefinedBehaviorSanitizer (clang, with the
 # libFuzzer targets in the same build); then a bounded libFuzzer run of the scene
 # and character parsers (docs/ROBUSTNESS.md).
-# Prints the wall time of every step (README, "Robustness").
+# Prints the wall time of every step (docs/ROBUSTNESS.md).
 #   TENSEGRITY_SKIP_SANITIZERS=1   skip the sanitizer build and run
 #   TENSEGRITY_SKIP_FUZZ=1         skip the fuzz run
 #   TENSEGRITY_FUZZ_SECONDS=N      seconds per fuzz target (default 20)

@@ -106,7 +106,7 @@ const AlternatingDetails& alternating_details(const SolveResult& r) {
   return *d;
 }
 
-// The grid: prisms n = 3..12, twist off by 5, 10, 15 and 20 degrees,
+// The grid: prisms n = 3..12, twist off by 5, 10, 15 and 20 degrees,
 // node noise of `noise` times the strut length; plain, or with masses,
 // gravity and a fixed bottom ring.
 std::vector<Case> prism_grid(double noise, bool gravity) {
@@ -135,8 +135,8 @@ TEST(AlternatingSolver, PerturbedPrismsWithGravityAndFixedBottomConverge) {
 // them too (prism-10 seed 10151, prism-12 seeds 12151 and 12154: 2000
 // iterations at relative residual 3e-3..1.7). Each variant names, by seed, the
 // scenes it does not converge on within its outer-iteration budget and how it
-// stops there; every other scene must converge (README "alternating" lists
-// the failing seeds). The budgets keep the suite fast under the sanitizers.
+// stops there; every other scene must converge. The budgets keep the suite
+// fast under the sanitizers.
 struct StronglyPerturbedVariant {
   const char* name;
   const char* backend;
@@ -145,8 +145,7 @@ struct StronglyPerturbedVariant {
   std::map<unsigned, Status> not_converging;  // seed -> expected status
 };
 
-// One ctest entry per variant, so that ctest runs them on both cores (each
-// takes 15-50 s under the sanitizers).
+// One ctest entry per variant, so that ctest can run them in parallel.
 class StronglyPerturbedPrisms : public ::testing::TestWithParam<StronglyPerturbedVariant> {};
 
 TEST_P(StronglyPerturbedPrisms, ConvergeExceptOnTheNamedScenesAndFailCleanly) {
@@ -246,7 +245,7 @@ TEST(AlternatingSolver, AdaptiveStepsAreCauchyStepsUntilTheSchemeCrawls) {
 // one also speeds steepest descent up (the gradient with respect to a node
 // scales with the forces on it): on this prism at 30 % noise 745 outer
 // iterations with 1e-2 against 3336 with 1e-3, at the price of the geometry
-// change wherever the answer needs weaker cables (README, "alternating").
+// change wherever the answer needs weaker cables (docs/BACKENDS.md, `alternating`).
 TEST(AlternatingSolver, MarginOptionSetsTheSmallestCableForce) {
   auto smallest_cable = [](const Structure& s, const SolveResult& r) {
     const double f0 = make_force_scale(s).reference_force;

@@ -1,4 +1,4 @@
-// Determinism (issue 10, item 4): the same input and options give bit-identical
+// Determinism: the same input and options give bit-identical
 // solution files run to run, with one or two batch jobs, and with one or two
 // OpenBLAS threads. Compared byte for byte except the value of `stats.seconds`,
 // the one wall-clock field of a solution file (docs/FORMATS.md); every other number

@@ -31,7 +31,7 @@ namespace {
 
 const std::string kReferenceDir = std::string(TENSEGRITY_SOURCE_DIR) + "/tests/reference/";
 
-// The contract's tolerance for `converged` (relative residual).
+// The default tolerance for `converged` (docs/FORMATS.md, Solution file) (relative residual).
 constexpr double kEquilibriumTolerance = 1e-8;
 // Sign margin as a fraction of F0, and the slack allowed on it (rounding).
 constexpr double kMarginFraction = 1e-3;
@@ -195,7 +195,7 @@ Expectation expectation(const std::string& backend, const std::string& scene) {
   return x;
 }
 
-// Equilibrium recomputed from the contract's formula: the largest net force on
+// Equilibrium recomputed from the formula of docs/FORMATS.md (Solution file): the largest net force on
 // a free node divided by the load scale (largest free-node weight, else the
 // largest |force|).
 double relative_residual(const Structure& scene, const Eigen::Matrix3Xd& x, const Eigen::VectorXd& forces) {

@@ -1,4 +1,4 @@
-// The fabrication issue's end-to-end check: a designed structure settles at
+// The fabrication end-to-end check: a designed structure settles at
 // its designed shape under gravity, the paper's constant-fraction baseline
 // does not for any fraction of a sweep; and the force-cap LP that explains an
 // infeasible design.

@@ -1,5 +1,5 @@
 // Equilibrium: A(x), f = A sigma + f_g, df/dq and the Hessian of lambda^T f,
-// checked against the contract's plain formula, closed-form prism forces and
+// checked against the plain formula of docs/FORMATS.md, closed-form prism forces and
 // central finite differences on several scenes.
 #include "formulations/equilibrium.hpp"
 
@@ -85,7 +85,7 @@ Eigen::VectorXd random_vector(int size, double scale, std::mt19937& rng) {
   return v;
 }
 
-// The contract's formula, written independently of Equilibrium: at every free
+// The formula of docs/FORMATS.md (Solution file), written independently of Equilibrium: at every free
 // node i, sum over touching elements of sigma_e (x_j - x_i)/|x_j - x_i| + m_i g.
 Eigen::VectorXd contract_net_forces(const Structure& s, const Eigen::Matrix3Xd& x,
                                     const Eigen::VectorXd& sigma) {
@@ -150,7 +150,7 @@ TEST(EquilibriumDerivatives, FiniteDifferencesOnSeveralScenes) {
     const Eigen::VectorXd lambda = random_vector(nq, 1.0, rng);
     const Eigen::VectorXd q0 = eq.free_nodes().gather(s.positions);
 
-    // f against the contract's formula, and A sigma + f_g against f.
+    // f against the formula of docs/FORMATS.md, and A sigma + f_g against f.
     const Eigen::VectorXd f = eq.residual(sigma);
     const Eigen::VectorXd reference = contract_net_forces(s, s.positions, sigma);
     worst.residual = std::max(worst.residual, relative_error(f, reference));

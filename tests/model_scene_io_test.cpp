@@ -359,7 +359,7 @@ TEST(SceneRoundTrip, NumbersBitForBitAndUnknownFieldsKept) {
   const std::string again = (dir / "again.scene.json").string();
   write_scene_file(r, again);
   EXPECT_EQ(read_file(path), read_file(again));
-  // Keys of the contract come first.
+  // The header keys of docs/FORMATS.md come first.
   EXPECT_EQ(read_file(path).find("\"format\""), 4u);
 }
 

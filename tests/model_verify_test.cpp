@@ -1,6 +1,6 @@
-// verify(): the contract's formulas on the analytic regular prism, whose force
-// densities are known in closed form (struts -1, verticals 1, rings
-// 1 / (2 sin(pi/n))), and on deliberately broken solutions.
+// verify(): the formulas of docs/FORMATS.md (Solution file) on the analytic
+// regular prism, whose force densities are known in closed form (struts -1,
+// verticals 1, rings 1 / (2 sin(pi/n))), and on deliberately broken solutions.
 #include <gtest/gtest.h>
 
 #include <cmath>

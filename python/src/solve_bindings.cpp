@@ -126,7 +126,7 @@ PyResult run_forces(const Structure& scene, double tol) {
 }  // namespace
 
 void bind_solve(py::module_& m) {
-  py::class_<Verification>(m, "Verification", "Independent re-check of a solution by the contract's formulas.")
+  py::class_<Verification>(m, "Verification", "Independent re-check of a solution by the formulas of docs/FORMATS.md.")
       .def_readonly("residual", &Verification::residual, "Max net force on a free node (N).")
       .def_readonly("relative_residual", &Verification::relative_residual)
       .def_readonly("load_scale", &Verification::load_scale, "N")

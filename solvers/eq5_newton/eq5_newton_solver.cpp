@@ -127,7 +127,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   z0.head(nlp.num_positions()) = nlp.equilibrium().free_nodes().gather(start.positions);
   z0.tail(nlp.num_forces()) = start.forces;
 
-  // The contract asks |f_i| <= tolerance * load scale (the largest free-node
+  // docs/FORMATS.md (Solution file) asks |f_i| <= tolerance * load scale (the largest free-node
   // weight under gravity, else max |sigma| >= F0); the Newton test bounds
   // |f / F0|_inf, a tenth of that for the three components of a node.
   const double max_free_weight = part.max_free_node_weight();

@@ -40,7 +40,7 @@ class DimensionlessEq5 final : public SparseNlp {
   SparsityPattern hessian_structure() const override { return hessian_; }
   void finalize(const NlpSolution& solution) override;
 
-  // The trace record of an Ipopt iteration: the contract's residuals at the
+  // The trace record of an Ipopt iteration: the residuals of docs/FORMATS.md at the
   // iterate, or only Ipopt's own infeasibility in the restoration phase.
   // `max_free_weight` is the load scale under gravity (0 without).
   TracePoint trace_point(const IpoptIteration& it, double max_free_weight);

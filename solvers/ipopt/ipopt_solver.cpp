@@ -265,7 +265,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
     if (sigma0.size() != part.num_elements() || !sigma0.allFinite()) sigma0 = reference_forces(part, scale);
   }
 
-  // Ipopt's constraint violation is the max-norm of f / F0; the contract asks
+  // Ipopt's constraint violation is the max-norm of f / F0; docs/FORMATS.md asks
   // |f_i| <= tolerance * load scale, where the load scale is the largest
   // free-node weight with gravity and otherwise max |sigma| >= F0 (mean cable
   // force = F0). A tenth of that, for the three components of a node.
@@ -387,7 +387,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   result.stats.iterations = recorder.trace().empty() ? 0 : recorder.trace().back().iteration;
   result.details = {details};
   if (result.status == Status::Converged && !v.ok && v.all_finite && v.wrong_signs == 0) {
-    // Ipopt's scaled stopping test was met but not the contract's: one stress
+    // Ipopt's scaled stopping test was met but not model/verify's: one stress
     // solve at the final geometry, warm-started from Ipopt's forces.
     Equilibrium eq(part);
     eq.set_positions(result.positions);

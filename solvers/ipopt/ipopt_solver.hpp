@@ -16,7 +16,7 @@
 // force-scale row couples every cable force, and QAMD keeps such quasi-dense
 // rows out of the fill-reducing ordering), tol 1e-12, constr_viol_tol
 // derived from SolveOptions::tolerance (so that Ipopt's success implies the
-// contract's relative residual), mu_strategy adaptive, max_iter from the
+// relative residual of docs/FORMATS.md), mu_strategy adaptive, max_iter from the
 // iteration budget (SolveOptions::iteration_budget), the time limit checked
 // on the wall clock in every iteration (Ipopt's own max_cpu_time counts the
 // CPU time of the whole process, so other threads would cut it short),

@@ -48,7 +48,7 @@ class ScaledProblem {
       lower_[i] = std::isfinite(lo[i]) ? lo[i] / unit_[i] : -HUGE_VAL;
       upper_[i] = std::isfinite(hi[i]) ? hi[i] / unit_[i] : HUGE_VAL;
     }
-    // The contract's load scale: the largest free-node weight, when there is one.
+    // The load scale (docs/FORMATS.md, Solution file): the largest free-node weight, when there is one.
     const Eigen::Matrix3Xd loads = part.gravity_loads();
     for (int i = 0; i < part.num_nodes(); ++i)
       if (!part.fixed[i]) gravity_load_scale_ = std::max(gravity_load_scale_, loads.col(i).norm());
@@ -117,7 +117,7 @@ class ScaledProblem {
     }
   }
 
-  // The contract's residual (N) and relative residual from scaled constraints.
+  // The residual (N) and relative residual of docs/FORMATS.md from scaled constraints.
   double residual(const double* c) const {
     double worst = 0.0;
     for (int k = 0; k + 2 < num_positions_; k += 3)

@@ -74,7 +74,7 @@ nlopt::result run_nlopt(nlopt::opt& opt, std::vector<double>& x);
 const char* result_name(nlopt::result r);
 
 // The one mapping from an NLopt outcome to our Status. A result is converged
-// only when the contract's equilibrium check accepts it, whatever NLopt said
+// only when model/verify's equilibrium check accepts it, whatever NLopt said
 // (a roundoff-limited stop on an equilibrium is still an equilibrium). A
 // convergence stop (SUCCESS, FTOL, XTOL, STOPVAL) that the check rejects is a
 // stall: NLopt's own tests stopped it short of equilibrium, which proves nothing.

@@ -26,7 +26,7 @@
 //   s.t.   sigma within the ForceScale sign bounds (NLopt box bounds)
 //
 // after each inner solve lambda += rho c and rho grows tenfold when |c| did not
-// shrink fourfold. Stops once the contract's relative residual is below half
+// shrink fourfold. Stops once the relative residual (docs/FORMATS.md) is below half
 // the tolerance.
 //   algorithm       al-lbfgs (default), al-tnewton, al-mma, al-ccsaq (the same
 //                   outer loop around another NLopt bound-constrained local

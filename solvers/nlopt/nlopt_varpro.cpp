@@ -8,7 +8,7 @@
 // SLSQP and the CCSA methods step on) would only halve the residual per step,
 // while the norm grows linearly away from that set. tau is a quarter of the
 // tolerance in units of the load scale, so that a point NLopt accepts also meets
-// the contract's relative residual. When the independent verification still
+// the relative residual of docs/FORMATS.md. When the independent verification still
 // rejects the answer after a convergence stop, L-BFGS on R alone restores
 // equilibrium from there (a tiny move), and if that fails too the run is
 // repeated with tau ten times smaller (`varpro_rounds` runs at most).

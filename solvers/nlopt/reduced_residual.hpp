@@ -45,19 +45,19 @@ class ReducedResidual {
   double evaluate(const double* y, double* grad);
 
   // Of the last evaluation: the forces sigma* (N), f = A sigma* + f_g (N), the
-  // contract's residual (largest free-node |f_i|, N) and the QP's status.
+  // residual of docs/FORMATS.md (largest free-node |f_i|, N) and the QP's status.
   const Eigen::VectorXd& forces() const { return sigma_; }
   const Eigen::VectorXd& net_forces() const { return f_; }
   double max_node_residual() const;
   StressQpStatus qp_status() const { return qp_status_; }
   long qp_solves() const { return qp_solves_; }
 
-  // The contract's load scale as far as it is known before the forces: the
+  // The load scale (docs/FORMATS.md) as far as it is known before the forces: the
   // largest free-node weight under gravity, else F0 (N), which the largest
   // |sigma| is at least close to (the mean cable force is F0).
   double load_scale() const { return load_scale_; }
   double reference_force() const { return reference_force_; }  // F0 (N)
-  // The contract's relative residual of the last evaluation: the residual over
+  // The relative residual (docs/FORMATS.md) of the last evaluation: the residual over
   // the largest free-node weight under gravity, else over max |sigma*|.
   double relative_residual() const;
 

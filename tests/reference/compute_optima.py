@@ -20,7 +20,7 @@ to no part (no equilibrium condition; they are given +-F0 of the whole scene
 with their sign, as the scene driver gives them).
 
 A part that already stands (Eq. 4 at the scene geometry: sign-bounded forces
-of any level balance it to the contract's relative residual 1e-8) is the
+of any level balance it to the relative residual 1e-8 of docs/FORMATS.md) is the
 answer unchanged, geometry change 0, as the scene driver returns it; Eq. 5 is
 solved for the other parts. For such a scene the Eq. 5 optimum of all parts
 is stored too (what a backend must reach without the driver's shortcut).
@@ -39,7 +39,7 @@ MARGIN_FRACTION = 1e-3
 KKT_TOLERANCE = 1e-12      # infinity norm of the scaled KKT residual
 MAX_NEWTON_STEPS = 200
 INERTIA_SHIFT = 1e-3       # smallest curvature of a shifted Newton model
-EQUILIBRIUM_TOLERANCE = 1e-8  # the contract's relative residual for `converged`
+EQUILIBRIUM_TOLERANCE = 1e-8  # docs/FORMATS.md's relative residual for `converged`
 
 
 def load_scene(path):
@@ -421,7 +421,7 @@ def nonnegative_least_squares(a, b):
 def standing_parts(prob):
     """Eq. 4 at the scene geometry, part by part: the sign-bounded least-squares
     forces (the margins as bounds, no force level) and whether they balance the
-    part to the contract's tolerance, as the scene driver checks before solving.
+    part to the tolerance of docs/FORMATS.md, as the scene driver checks before solving.
     Returns {part root: (stands, relative residual, forces, forces unique)}."""
     xf = np.concatenate([prob.s["x0"][i] for i in prob.free])
     c, _, js = prob.constraints(xf, np.zeros(prob.m))
