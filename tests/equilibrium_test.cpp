@@ -87,7 +87,7 @@ Eigen::VectorXd random_vector(int size, double scale, std::mt19937& rng) {
 
 // The formula of docs/FORMATS.md (Solution file), written independently of Equilibrium: at every free
 // node i, sum over touching elements of sigma_e (x_j - x_i)/|x_j - x_i| + m_i g.
-Eigen::VectorXd contract_net_forces(const Structure& s, const Eigen::Matrix3Xd& x,
+Eigen::VectorXd documented_net_forces(const Structure& s, const Eigen::Matrix3Xd& x,
                                     const Eigen::VectorXd& sigma) {
   Eigen::Matrix3Xd net = Eigen::Matrix3Xd::Zero(3, s.num_nodes());
   const Eigen::VectorXd mass = s.lumped_mass();
@@ -152,7 +152,7 @@ TEST(EquilibriumDerivatives, FiniteDifferencesOnSeveralScenes) {
 
     // f against the formula of docs/FORMATS.md, and A sigma + f_g against f.
     const Eigen::VectorXd f = eq.residual(sigma);
-    const Eigen::VectorXd reference = contract_net_forces(s, s.positions, sigma);
+    const Eigen::VectorXd reference = documented_net_forces(s, s.positions, sigma);
     worst.residual = std::max(worst.residual, relative_error(f, reference));
     const Eigen::VectorXd a_sigma = eq.A() * sigma + eq.gravity_load();
     worst.residual = std::max(worst.residual, relative_error(a_sigma, reference));
@@ -210,7 +210,7 @@ TEST(EquilibriumDerivatives, FiniteDifferencesOnSeveralScenes) {
     worst.hessian_qsigma =
         std::max(worst.hessian_qsigma, relative_error(H.topRightCorner(nq, m), fd_hqs));
   }
-  std::printf("[ worst relative error over %zu scenes ] f vs contract %.2e, A vs FD %.2e, "
+  std::printf("[ worst relative error over %zu scenes ] f vs documented formula %.2e, A vs FD %.2e, "
               "df/dq vs FD %.2e, Hessian q-q vs FD %.2e, Hessian q-sigma vs FD %.2e\n",
               scenes.size(), worst.residual, worst.a_columns, worst.jacobian, worst.hessian_qq,
               worst.hessian_qsigma);
@@ -373,7 +373,7 @@ TEST(EquilibriumStructure, FixedNodesCarryNoRows) {
   eq.set_positions(x);
   const Eigen::VectorXd f = eq.residual(sigma);
   ASSERT_EQ(f.size(), 12);
-  EXPECT_LT((f - contract_net_forces(s, x, sigma)).cwiseAbs().maxCoeff(), 1e-14);
+  EXPECT_LT((f - documented_net_forces(s, x, sigma)).cwiseAbs().maxCoeff(), 1e-14);
   // Top node k: own mass 0 plus half a strut (0.1 kg); loads on fixed nodes are absent.
   for (int k = 0; k < 4; ++k) EXPECT_DOUBLE_EQ(eq.gravity_load()[3 * k + 2], -9.81 * 0.1);
 }

@@ -134,7 +134,7 @@ TEST(SolutionFile, WriteThenReadIsBitIdentical) {
   EXPECT_EQ(out.str(), read_text(path));
 }
 
-TEST(SolutionFile, ContractKeysArePresent) {
+TEST(SolutionFile, DocumentedKeysArePresent) {
   const Structure scene = test_scene();
   Solution s = test_solution(scene);
   s.rest_lengths.reset();
@@ -157,7 +157,7 @@ TEST(SolutionFile, ContractKeysArePresent) {
   EXPECT_FALSE(j.contains("rest_lengths"));
 }
 
-TEST(SolutionStatus, ContractStringsRoundTrip) {
+TEST(SolutionStatus, DocumentedStringsRoundTrip) {
   const std::pair<Status, const char*> names[] = {{Status::Converged, "converged"},
                                                    {Status::MaxIterations, "max_iterations"},
                                                    {Status::Infeasible, "infeasible"},
