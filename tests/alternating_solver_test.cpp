@@ -430,20 +430,6 @@ TEST(AlternatingSolver, DetailsCountGaussNewtonRestarts) {
   EXPECT_EQ(i.stress_solves, 0);
 }
 
-TEST(AlternatingSolver, GravityWithoutSupportsIsInfeasible) {
-  PrismParameters p;
-  p.n = 4;
-  p.gravity = true;
-  p.strut_mass = 0.1;
-  const Structure scene = perturbed(make_regular_prism(p), 0.05, 3);
-  for (bool gn : {false, true}) {
-    const SolveResult r = make_solver(gn ? "alternating-gn" : "alternating")->Solve(scene, SolveOptions{}, DriverControls{false});
-    EXPECT_EQ(r.status, Status::Infeasible) << r.message;
-    EXPECT_EQ(r.stats.iterations, 0);
-    EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
-  }
-}
-
 TEST(AlternatingSolver, IterationBudgetIsReported) {
   const Structure scene = perturbed(prism(8, 15.0, false), 0.05, 9);
   SolveOptions options;
