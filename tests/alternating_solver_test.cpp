@@ -1,6 +1,6 @@
 // The alternating backends (faithful Algorithm 1 and Gauss-Newton) on perturbed
 // reference structures: convergence near the tensegrity each was made from, monotone Eq. 4
-// objective, scale invariance, the equilibrium shortcut, infeasible parts.
+// objective, scale invariance, the equilibrium shortcut, statuses and details.
 #include "solvers/alternating/alternating_solver.hpp"
 
 #include <cstdio>
