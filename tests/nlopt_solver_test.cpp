@@ -134,12 +134,6 @@ TEST(NloptSolver, BudgetsBecomeStatusesNotConvergence) {
   // The driver checks only `converged` claims: a budget status must not hide an equilibrium.
   EXPECT_FALSE(verify(scene, few.positions, few.forces, 1e-8).ok);
 
-  SolveOptions one_outer = options_with();
-  one_outer.max_iterations = 1;
-  const SolveResult short_run = solver.Solve(scene, one_outer, DriverControls{false});
-  EXPECT_EQ(short_run.status, Status::MaxIterations) << short_run.message;
-  EXPECT_EQ(short_run.stats.iterations, 1);
-
   SolveOptions instant = options_with();
   instant.time_limit_s = 1e-9;
   const SolveResult late = solver.Solve(scene, instant, DriverControls{false});
