@@ -1,6 +1,7 @@
 // The alternating backends (faithful Algorithm 1 and Gauss-Newton) on perturbed
 // reference structures: convergence near the tensegrity each was made from, monotone Eq. 4
-// objective, scale invariance, the equilibrium shortcut, statuses and details.
+// objective, the equilibrium shortcut, statuses and details (scale invariance:
+// tests/every_backend_test.cpp).
 #include "solvers/alternating/alternating_solver.hpp"
 
 #include <cstdio>
@@ -319,29 +320,6 @@ TEST(AlternatingSolver, FaithfulSchemeConvergesOnPerturbedCharacters) {
   }
 }
 
-TEST(AlternatingSolver, ScaledScenesGiveScaledSolutions) {
-  const Structure base = perturbed(prism(5, 10.0, true), 0.05, 11);
-  SolveOptions options;
-  for (bool gn : {false, true}) {
-    const auto solver_owner = make_solver(gn ? "alternating-gn" : "alternating");
-    const Solver& solver = *solver_owner;
-    const SolveResult reference = solver.Solve(base, options, DriverControls{false});
-    ASSERT_EQ(reference.status, Status::Converged) << reference.message;
-    const double length = base.mean_element_length();
-    for (double factor : {1e-3, 1e3}) {
-      Structure scaled = base;
-      scaled.positions *= factor;
-      const SolveResult r = solver.Solve(scaled, options, DriverControls{false});
-      ASSERT_EQ(r.status, Status::Converged) << r.message;
-      EXPECT_EQ(r.stats.iterations, reference.stats.iterations);
-      const double position_error = (r.positions / factor - reference.positions).cwiseAbs().maxCoeff();
-      EXPECT_LE(position_error, 1e-9 * length) << solver.name() << " scale " << factor;
-      const double force_error = (r.forces - reference.forces).cwiseAbs().maxCoeff();
-      EXPECT_LE(force_error, 1e-9 * reference.forces.cwiseAbs().maxCoeff());
-    }
-  }
-}
-
 TEST(AlternatingSolver, SceneInEquilibriumKeepsItsGeometry) {
   SolveOptions options;
   for (bool gn : {false, true}) {
@@ -457,7 +435,7 @@ TEST(AlternatingSolver, DetailsCountGaussNewtonRestarts) {
   EXPECT_EQ(i.stress_solves, 0);
 }
 
-// The status and count of a one-iteration budget: tests/backend_prechecks_test.cpp.
+// The status and count of a one-iteration budget: tests/every_backend_test.cpp.
 TEST(AlternatingSolver, OneOuterIterationTracesTheStartAndOnePoint) {
   const Structure scene = perturbed(prism(8, 15.0, false), 0.05, 9);
   SolveOptions options;

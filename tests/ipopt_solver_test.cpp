@@ -109,32 +109,6 @@ TEST(IpoptSolver, SolveSceneHandlesTwoParts) {
   EXPECT_LT((d.leftCols(n) - d.rightCols(n)).norm(), 1e-9 * scene_size(s));
 }
 
-Structure scaled(Structure s, double factor) {
-  s.positions *= factor;
-  return s;
-}
-
-// y = ((q - q0) / L, sigma / F0) makes Ipopt's problem identical at every scale.
-TEST(IpoptSolver, ScaleInvariance) {
-  const IpoptSolver solver;
-  for (const Structure& base : {perturbed(prism(6), 0.05, 7u), perturbed(octahedron(true), 0.05, 8u)}) {
-    const SolveResult r1 = solver.Solve(base, no_shortcut(), DriverControls{false});
-    ASSERT_EQ(r1.status, Status::Converged) << r1.message;
-    for (double factor : {1e-3, 1e3}) {
-      const Structure s = scaled(base, factor);
-      const SolveResult r = solver.Solve(s, no_shortcut(), DriverControls{false});
-      ASSERT_EQ(r.status, Status::Converged) << base.name << " x" << factor << ": " << r.message;
-      EXPECT_NEAR(r.stats.geometry_change, factor * r1.stats.geometry_change, 1e-8 * factor * r1.stats.geometry_change);
-      const double position_error = (r.positions / factor - r1.positions).norm() / scene_size(base);
-      const double force_error = (r.forces - r1.forces).norm() / r1.forces.norm();
-      std::printf("[ %s x%g ] relative position difference %.1e, force difference %.1e\n",
-                  base.name.c_str(), factor, position_error, force_error);
-      EXPECT_LT(position_error, 1e-8);
-      EXPECT_LT(force_error, 1e-6);
-    }
-  }
-}
-
 TEST(IpoptSolver, LimitedMemoryHessianConverges) {
   const IpoptSolver solver;
   SolveOptions o = no_shortcut();
