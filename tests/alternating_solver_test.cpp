@@ -1,6 +1,7 @@
 // The alternating backends (faithful Algorithm 1 and Gauss-Newton) on perturbed
-// reference structures: convergence verified independently, monotone Eq. 4
-// objective, scale invariance, the equilibrium shortcut, infeasible parts.
+// reference structures: convergence near the tensegrity each was made from, monotone Eq. 4
+// objective, the equilibrium shortcut, statuses and details (scale invariance:
+// tests/every_backend_test.cpp).
 #include "solvers/alternating/alternating_solver.hpp"
 
 #include <cstdio>
@@ -21,7 +22,6 @@
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
 #include "scenes/perturb.hpp"
-#include "model/verify.hpp"
 #include "solvers/solver.hpp"
 
 namespace tensegrity {
@@ -64,19 +64,35 @@ Structure octahedron(bool gravity) {
   return make_expandable_octahedron(p);
 }
 
+// A scene made from a tensegrity (a regular prism, the octahedron, a built
+// character) by twisting and moving its nodes; `distance` is how far that
+// makes it from the tensegrity (m).
 struct Case {
+  Case(std::string name, Structure scene, const Structure& made_from)
+      : name(std::move(name)), scene(std::move(scene)),
+        distance((this->scene.positions - made_from.positions).norm()) {}
   std::string name;
   Structure scene;
+  double distance;
 };
 
-void expect_converged_and_verified(const Case& c, const SolveResult& r, const std::string& solver) {
+// The tensegrity a scene was made from bounds how far an answer should move
+// it: Eq. 5's optimum is no farther, and the alternating schemes end within a
+// few percent of it (tests/conformance_test.cpp; here at most 0.78 of the
+// distance), so a scheme that converges to a far equilibrium fails here.
+constexpr double kMaxChangeOverDistance = 1.0;
+// At 15 % noise the SDC variant may end at a farther equilibrium (prism-12,
+// seed 12152: 1.10 times the distance, alternating-gn 0.70).
+constexpr double kMaxChangeOverDistanceStronglyPerturbed = 1.2;
+
+// The driver has verified every `converged` result; this checks that it is near.
+void expect_converged_nearby(const Case& c, const SolveResult& r, const std::string& solver) {
   SCOPED_TRACE(c.name + " with " + solver + ": " + r.message);
   EXPECT_EQ(r.status, Status::Converged);
-  const Verification v = verify(c.scene, r.positions, r.forces, 1e-8);
-  EXPECT_TRUE(v.ok);
-  EXPECT_LE(v.relative_residual, 1e-8);
-  EXPECT_EQ(v.wrong_signs, 0);
-  EXPECT_EQ(v.moved_fixed_nodes, 0);
+  EXPECT_LE(r.stats.geometry_change, kMaxChangeOverDistance * c.distance);
+  if (!c.scene.has_gravity()) {
+    EXPECT_GT(r.stats.geometry_change, 0.0);
+  }
   ASSERT_FALSE(r.trace.empty());
   for (std::size_t k = 1; k < r.trace.size(); ++k)
     EXPECT_LE(r.trace[k].objective, r.trace[k - 1].objective) << "Eq. 4 objective rose at trace point " << k;
@@ -94,7 +110,7 @@ void run_cases(const std::vector<Case>& cases) {
     if (backend == "alternating-gn" && backend != name) options.backend_options = {{"interior_iterations", "0"}};
     if (backend == "alternating" && backend != name) options.backend_options = {{"step_length", "sdc"}};
     const auto solver = make_solver(backend);
-    for (const Case& c : cases) expect_converged_and_verified(c, solve_scene(*solver, c.scene, options), name);
+    for (const Case& c : cases) expect_converged_nearby(c, solve_scene(*solver, c.scene, options), name);
   }
 }
 
@@ -117,7 +133,7 @@ std::vector<Case> prism_grid(double noise, bool gravity) {
                             (gravity ? 500 : 0);
       cases.push_back({std::string(gravity ? "gravity " : "") + "prism-" + std::to_string(n) + " noise " +
                            std::to_string(noise) + " twist " + std::to_string(twist) + " seed " + std::to_string(seed),
-                       perturbed(prism(n, twist, gravity), noise, seed)});
+                       perturbed(prism(n, twist, gravity), noise, seed), prism(n, 0.0, gravity)});
     }
   return cases;
 }
@@ -166,7 +182,7 @@ TEST_P(StronglyPerturbedPrisms, ConvergeExceptOnTheNamedScenesAndFailCleanly) {
     for (std::size_t k = 1; k < r.trace.size(); ++k)
       EXPECT_LE(r.trace[k].objective, r.trace[k - 1].objective) << c.name << " trace point " << k;
     if (r.status == Status::Converged) {
-      EXPECT_TRUE(verify(c.scene, r.positions, r.forces, 1e-8).ok) << c.name;
+      EXPECT_LE(r.stats.geometry_change, kMaxChangeOverDistanceStronglyPerturbed * c.distance) << c.name;
     }
   }
 }
@@ -223,7 +239,7 @@ TEST(AlternatingSolver, AdaptiveStepsAreCauchyStepsUntilTheSchemeCrawls) {
   const SolveResult plain = solve_scene(*make_solver("alternating"), c.scene, cauchy);
   EXPECT_EQ(plain.status, Status::MaxIterations) << plain.message;
   EXPECT_EQ(plain.message.find("SDC"), std::string::npos) << plain.message;
-  expect_converged_and_verified(c, crawl, "alternating");
+  expect_converged_nearby(c, crawl, "alternating");
   const std::string marker = "SDC steps from outer iteration ";
   const std::size_t at = crawl.message.find(marker);
   ASSERT_NE(at, std::string::npos) << crawl.message;
@@ -255,31 +271,33 @@ TEST(AlternatingSolver, MarginOptionSetsTheSmallestCableForce) {
     return smallest;
   };
   const auto solver = make_solver("alternating");
-  const Case plain{"prism-6 at 30 % noise", perturbed(prism(6, 10.0, false), 0.3, 3)};
+  const Case plain{"prism-6 at 30 % noise", perturbed(prism(6, 10.0, false), 0.3, 3), prism(6, 0.0, false)};
   SolveOptions shared_margin;
   shared_margin.time_limit_s = 900.0;  // thousands of outer iterations: minutes under the sanitizers
   SolveOptions larger = shared_margin;
   larger.backend_options = {{"margin", "0.01"}};
   const SolveResult shared = solve_scene(*solver, plain.scene, shared_margin);
   const SolveResult prestress = solve_scene(*solver, plain.scene, larger);
-  expect_converged_and_verified(plain, shared, "alternating");
-  expect_converged_and_verified(plain, prestress, "alternating margin=0.01");
+  expect_converged_nearby(plain, shared, "alternating");
+  expect_converged_nearby(plain, prestress, "alternating margin=0.01");
   EXPECT_GE(smallest_cable(plain.scene, shared), SolveOptions{}.margin_fraction * (1.0 - 1e-9));
   EXPECT_LT(smallest_cable(plain.scene, shared), 2e-3);  // the margin binds
   EXPECT_NEAR(smallest_cable(plain.scene, prestress), 1e-2, 1e-11);
   EXPECT_GT(shared.stats.iterations, 2 * prestress.stats.iterations);
 
-  const Case loaded{"gravity prism-7 at 15 % noise", perturbed(prism(7, 10.0, true), 0.15, 1)};
+  const Case loaded{"gravity prism-7 at 15 % noise", perturbed(prism(7, 10.0, true), 0.15, 1), prism(7, 0.0, true)};
   const SolveResult weighed = solve_scene(*solver, loaded.scene, shared_margin);
-  expect_converged_and_verified(loaded, weighed, "alternating");
+  expect_converged_nearby(loaded, weighed, "alternating");
   EXPECT_NEAR(smallest_cable(loaded.scene, weighed), SolveOptions{}.margin_fraction, 1e-9);
 }
 
 TEST(AlternatingSolver, PerturbedOctahedraConverge) {
   std::vector<Case> cases;
   for (double noise : {0.01, 0.05, 0.15}) {
-    cases.push_back({"octahedron noise " + std::to_string(noise), perturbed(octahedron(false), noise, 5)});
-    cases.push_back({"gravity octahedron noise " + std::to_string(noise), perturbed(octahedron(true), noise, 6)});
+    cases.push_back({"octahedron noise " + std::to_string(noise), perturbed(octahedron(false), noise, 5),
+                     octahedron(false)});
+    cases.push_back({"gravity octahedron noise " + std::to_string(noise), perturbed(octahedron(true), noise, 6),
+                     octahedron(true)});
   }
   run_cases(cases);
 }
@@ -293,35 +311,11 @@ TEST(AlternatingSolver, FaithfulSchemeConvergesOnPerturbedCharacters) {
   const std::string characters = std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/";
   for (const char* name : {"minimal/duck", "puppy"}) {
     const Structure built = build_character_file(characters + name + ".character.json").structure;
-    const Case c{std::string(name) + " noise 0.01", perturbed(built, 0.01, 31)};
+    const Case c{std::string(name) + " noise 0.01", perturbed(built, 0.01, 31), built};
     SolveOptions options;
     options.time_limit_s = 60.0;  // generous for the sanitizer build
     const SolveResult r = solve_scene(*make_solver("alternating"), c.scene, options);
-    expect_converged_and_verified(c, r, "alternating");
-    EXPECT_LE(r.stats.geometry_change, (c.scene.positions - built.positions).norm()) << name;
-  }
-}
-
-TEST(AlternatingSolver, ScaledScenesGiveScaledSolutions) {
-  const Structure base = perturbed(prism(5, 10.0, true), 0.05, 11);
-  SolveOptions options;
-  for (bool gn : {false, true}) {
-    const auto solver_owner = make_solver(gn ? "alternating-gn" : "alternating");
-    const Solver& solver = *solver_owner;
-    const SolveResult reference = solver.Solve(base, options, DriverControls{false});
-    ASSERT_EQ(reference.status, Status::Converged) << reference.message;
-    const double length = base.mean_element_length();
-    for (double factor : {1e-3, 1e3}) {
-      Structure scaled = base;
-      scaled.positions *= factor;
-      const SolveResult r = solver.Solve(scaled, options, DriverControls{false});
-      ASSERT_EQ(r.status, Status::Converged) << r.message;
-      EXPECT_EQ(r.stats.iterations, reference.stats.iterations);
-      const double position_error = (r.positions / factor - reference.positions).cwiseAbs().maxCoeff();
-      EXPECT_LE(position_error, 1e-9 * length) << solver.name() << " scale " << factor;
-      const double force_error = (r.forces - reference.forces).cwiseAbs().maxCoeff();
-      EXPECT_LE(force_error, 1e-9 * reference.forces.cwiseAbs().maxCoeff());
-    }
+    expect_converged_nearby(c, r, "alternating");
   }
 }
 
@@ -334,7 +328,18 @@ TEST(AlternatingSolver, SceneInEquilibriumKeepsItsGeometry) {
       EXPECT_EQ(r.stats.iterations, 0);
       EXPECT_EQ(r.stats.geometry_change, 0.0);
       EXPECT_TRUE(r.positions == scene.positions);
-      EXPECT_TRUE(verify(scene, r.positions, r.forces).ok);
+      // Both are symmetric: every strut carries the same force, and so does
+      // every cable of a kind (the octahedron's cables are of one kind; the
+      // prism's struts are elements [0, n), verticals [n, 2n), rings [2n, 4n)).
+      const int n = scene.num_elements() / 4;
+      const bool is_prism = scene.num_nodes() == 2 * n;
+      for (int e = 1; e < scene.num_elements(); ++e) {
+        const bool same_kind = is_prism ? e % n != 0 || e / n == 3
+                                        : scene.elements[e].kind == scene.elements[e - 1].kind;
+        if (same_kind) {
+          EXPECT_NEAR(r.forces[e], r.forces[e - 1], 1e-9 * r.forces.cwiseAbs().maxCoeff()) << e;
+        }
+      }
     }
   }
 }
@@ -429,27 +434,13 @@ TEST(AlternatingSolver, DetailsCountGaussNewtonRestarts) {
   EXPECT_EQ(i.stress_solves, 0);
 }
 
-TEST(AlternatingSolver, GravityWithoutSupportsIsInfeasible) {
-  PrismParameters p;
-  p.n = 4;
-  p.gravity = true;
-  p.strut_mass = 0.1;
-  const Structure scene = perturbed(make_regular_prism(p), 0.05, 3);
-  for (bool gn : {false, true}) {
-    const SolveResult r = make_solver(gn ? "alternating-gn" : "alternating")->Solve(scene, SolveOptions{}, DriverControls{false});
-    EXPECT_EQ(r.status, Status::Infeasible) << r.message;
-    EXPECT_EQ(r.stats.iterations, 0);
-    EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
-  }
-}
-
-TEST(AlternatingSolver, IterationBudgetIsReported) {
+// The status and count of a one-iteration budget: tests/every_backend_test.cpp.
+TEST(AlternatingSolver, OneOuterIterationTracesTheStartAndOnePoint) {
   const Structure scene = perturbed(prism(8, 15.0, false), 0.05, 9);
   SolveOptions options;
   options.max_iterations = 1;
   const SolveResult r = AlternatingSolver().Solve(scene, options, DriverControls{false});
-  EXPECT_EQ(r.status, Status::MaxIterations);
-  EXPECT_EQ(r.stats.iterations, 1);
+  ASSERT_EQ(r.status, Status::MaxIterations);
   EXPECT_EQ(r.trace.size(), 2u);
 }
 

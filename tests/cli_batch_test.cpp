@@ -35,6 +35,8 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using testing::ProgramRun;
 using testing::read_text;
+using testing::start_program;
+using testing::wait_program;
 
 // The solution file without the value of `stats.seconds` (the one wall-clock
 // field); fails when the field is missing, so the masking hides nothing else.
@@ -46,42 +48,6 @@ std::string without_seconds(std::string text) {
   const std::size_t begin = at + key.size();
   const std::size_t end = text.find_first_not_of("0123456789.eE+-", begin);
   return text.replace(begin, end - begin, "T");
-}
-
-// The program started in the background, stdout and stderr into files.
-pid_t start_program(const std::vector<std::string>& args, const fs::path& logs) {
-  std::vector<std::string> all = {TENSEGRITY_BINARY};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  const std::string out = (logs / "stdout").string(), err = (logs / "stderr").string();
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    ::dup2(o, 1);
-    ::dup2(e, 2);
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
-  return pid;
-}
-
-// waitpid with a limit; a program still running then is killed (and the test fails).
-int wait_program(pid_t pid, double limit_s) {
-  const auto t0 = std::chrono::steady_clock::now();
-  for (;;) {
-    int status = 0;
-    if (::waitpid(pid, &status, WNOHANG) == pid) return status;
-    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > limit_s) {
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, &status, 0);
-      ADD_FAILURE() << "program still running after " << limit_s << " s";
-      return status;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
 }
 
 // The text of a /proc/PID/stat file, or "" once the process is gone: a

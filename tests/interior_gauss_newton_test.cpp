@@ -126,6 +126,7 @@ TEST(InteriorGaussNewton, TowerConvergesCloserThanItsPerturbation) {
     const Structure scene = scenes::perturbed_tower(data, gravity);
     const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), InteriorGaussNewtonOptions{});
     ASSERT_EQ(r.status, Status::Converged) << r.message;
+    // Called without the scene driver, so nothing else has verified the claim.
     const Verification v = verify(scene, r.positions, r.forces, 1e-8);
     EXPECT_TRUE(v.ok);
     // The stored equilibrium is one feasible point of Eq. 5, so the optimum
@@ -153,19 +154,8 @@ TEST(InteriorGaussNewton, SceneInEquilibriumKeepsItsGeometry) {
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_EQ(r.stats.geometry_change, 0.0);
   EXPECT_EQ(r.stats.iterations, 0);
+  // Called without the scene driver, so nothing else has verified the claim.
   EXPECT_TRUE(verify(prism, r.positions, r.forces, 1e-8).ok);
-}
-
-TEST(InteriorGaussNewton, GravityWithoutSupportsIsInfeasible) {
-  PrismParameters p;
-  p.n = 4;
-  p.gravity = true;
-  p.strut_mass = 0.1;
-  const Structure prism = make_regular_prism(p);
-  // The driver proves it before any backend runs.
-  const SolveResult r = make_solver("alternating-gn")->Solve(prism, SolveOptions{});
-  EXPECT_EQ(r.status, Status::Infeasible);
-  EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
 }
 
 TEST(InteriorGaussNewton, BudgetIsAStatusNotAnAnswer) {

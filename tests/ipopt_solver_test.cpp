@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <stdexcept>
+#include <string>
 #include <tuple>
 
 #include "model/errors.hpp"
-#include "model/verify.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"
 #include "formulations/force_scale.hpp"
@@ -32,14 +34,6 @@ SolveOptions no_shortcut() {
   return o;
 }
 
-TEST(IpoptSolver, IsRegisteredByName) {
-  const auto solver = make_solver("ipopt");
-  ASSERT_NE(solver, nullptr);
-  EXPECT_EQ(solver->name(), "ipopt");
-  const auto names = solver_names();
-  EXPECT_NE(std::find(names.begin(), names.end(), "ipopt"), names.end());
-}
-
 std::vector<Structure> perturbed_scenes() {
   std::vector<Structure> v;
   for (int n : {3, 4, 6, 8}) {
@@ -59,61 +53,60 @@ std::vector<Structure> perturbed_scenes() {
   return v;
 }
 
-TEST(IpoptSolver, PerturbedScenesConvergeAndVerify) {
+// Cross-checked against the `nlopt` backend, which solves the same Eq. 5
+// from the same start by another method: without gravity both must reach the
+// same local optimum; under gravity Ipopt's default only caps the mean cable
+// force at the weight that nlopt holds, so it never ends farther.
+constexpr double kSameOptimumGeometryChange = 1e-4;  // relative
+
+TEST(IpoptSolver, PerturbedScenesConvergeToNloptsOptimum) {
   const IpoptSolver solver;
+  const auto nlopt = make_solver("nlopt");
   for (const Structure& s : perturbed_scenes()) {
     const SolveResult r = solver.Solve(s, no_shortcut(), DriverControls{false});
-    const Verification v = verify(s, r.positions, r.forces, 1e-8);
-    std::printf("[ %s ] %s, %d iterations, relative residual %.1e, geometry change %.4g\n", s.name.c_str(),
-                std::string(to_string(r.status)).c_str(), r.stats.iterations, v.relative_residual,
-                v.geometry_change);
-    EXPECT_EQ(r.status, Status::Converged) << s.name << ": " << r.message;
-    EXPECT_TRUE(v.ok) << s.name;
-    EXPECT_GT(v.geometry_change, 0.0) << s.name;
+    const SolveResult other = nlopt->Solve(s, no_shortcut(), DriverControls{false});
+    std::printf("[ %s ] %s, %d iterations, relative residual %.1e, geometry change %.10g, nlopt's %.10g\n",
+                s.name.c_str(), std::string(to_string(r.status)).c_str(), r.stats.iterations,
+                r.stats.relative_residual, r.stats.geometry_change, other.stats.geometry_change);
+    ASSERT_EQ(r.status, Status::Converged) << s.name << ": " << r.message;
+    ASSERT_EQ(other.status, Status::Converged) << s.name << ": " << other.message;
+    EXPECT_GT(r.stats.geometry_change, 0.0) << s.name;
+    if (s.has_gravity()) {
+      EXPECT_LE(r.stats.geometry_change, other.stats.geometry_change * (1.0 + kSameOptimumGeometryChange)) << s.name;
+    } else {
+      EXPECT_NEAR(r.stats.geometry_change, other.stats.geometry_change,
+                  kSameOptimumGeometryChange * other.stats.geometry_change) << s.name;
+    }
     // The trace has one point per iteration, ending at the converged residual.
     ASSERT_FALSE(r.trace.empty()) << s.name;
     EXPECT_LT(r.trace.back().relative_residual, 1e-8) << s.name;
-    EXPECT_NEAR(r.trace.back().geometry_change, v.geometry_change, 1e-9 * scene_size(s)) << s.name;
+    EXPECT_NEAR(r.trace.back().geometry_change, r.stats.geometry_change, 1e-9 * scene_size(s)) << s.name;
   }
 }
 
-// Through the shared driver too: the same answer, verified on the whole scene.
+// The committed Eq. 5 optimum of one scene (tests/reference/optima.json), in m.
+double reference_geometry_change(const std::string& name) {
+  const nlohmann::json j = read_json_file(std::string(TENSEGRITY_SOURCE_DIR) + "/tests/reference/optima.json");
+  for (const auto& s : j.at("scenes"))
+    if (s.at("name") == name) return s.at("geometry_change").get<double>();
+  throw std::runtime_error("no reference optimum for " + name);
+}
+
+// Through the shared driver too: two copies of a reference scene, each moved
+// to the reference optimum, so the whole change is sqrt(2) times the optimum's.
 TEST(IpoptSolver, SolveSceneHandlesTwoParts) {
-  const Structure s = scenes::two_copies(prism(4, 10.0), Eigen::Vector3d(4.0, 0.0, 0.0));
+  const Structure one =
+      read_scene_file(std::string(TENSEGRITY_SOURCE_DIR) + "/tests/reference/scenes/prism-4-twist10.scene.json");
+  const Structure s = scenes::two_copies(one, Eigen::Vector3d(4.0, 0.0, 0.0));
   const auto solver = make_solver("ipopt");
   const SolveResult r = solve_scene(*solver, s, SolveOptions{});
-  EXPECT_EQ(r.status, Status::Converged) << r.message;
-  EXPECT_TRUE(verify(s, r.positions, r.forces, 1e-8).ok);
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_NEAR(r.stats.geometry_change, std::sqrt(2.0) * reference_geometry_change("prism-4-twist10"),
+              kSameOptimumGeometryChange * r.stats.geometry_change);
   // Both copies moved the same way (to 1e-9 of the scene size).
   const int n = s.num_nodes() / 2;
   const Eigen::Matrix3Xd d = r.positions - s.positions;
   EXPECT_LT((d.leftCols(n) - d.rightCols(n)).norm(), 1e-9 * scene_size(s));
-}
-
-Structure scaled(Structure s, double factor) {
-  s.positions *= factor;
-  return s;
-}
-
-// y = ((q - q0) / L, sigma / F0) makes Ipopt's problem identical at every scale.
-TEST(IpoptSolver, ScaleInvariance) {
-  const IpoptSolver solver;
-  for (const Structure& base : {perturbed(prism(6), 0.05, 7u), perturbed(octahedron(true), 0.05, 8u)}) {
-    const SolveResult r1 = solver.Solve(base, no_shortcut(), DriverControls{false});
-    ASSERT_EQ(r1.status, Status::Converged) << r1.message;
-    for (double factor : {1e-3, 1e3}) {
-      const Structure s = scaled(base, factor);
-      const SolveResult r = solver.Solve(s, no_shortcut(), DriverControls{false});
-      ASSERT_EQ(r.status, Status::Converged) << base.name << " x" << factor << ": " << r.message;
-      EXPECT_TRUE(verify(s, r.positions, r.forces, 1e-8).ok);
-      const double position_error = (r.positions / factor - r1.positions).norm() / scene_size(base);
-      const double force_error = (r.forces - r1.forces).norm() / r1.forces.norm();
-      std::printf("[ %s x%g ] relative position difference %.1e, force difference %.1e\n",
-                  base.name.c_str(), factor, position_error, force_error);
-      EXPECT_LT(position_error, 1e-8);
-      EXPECT_LT(force_error, 1e-6);
-    }
-  }
 }
 
 TEST(IpoptSolver, LimitedMemoryHessianConverges) {
@@ -124,21 +117,20 @@ TEST(IpoptSolver, LimitedMemoryHessianConverges) {
   const Structure s = perturbed(prism(4), 0.05, 3u);
   const SolveResult r = solver.Solve(s, o, DriverControls{false});
   const SolveResult exact = solver.Solve(s, no_shortcut(), DriverControls{false});
-  EXPECT_EQ(r.status, Status::Converged) << r.message;
-  EXPECT_TRUE(verify(s, r.positions, r.forces, 1e-8).ok);
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  ASSERT_EQ(exact.status, Status::Converged) << exact.message;
   // Both reach the same local optimum (same starting point, smooth problem).
   EXPECT_NEAR(r.stats.geometry_change, exact.stats.geometry_change, 1e-6 * exact.stats.geometry_change);
+  EXPECT_LE((r.forces - exact.forces).norm(), 1e-4 * exact.forces.norm());
   std::printf("limited-memory %d iterations, exact %d iterations\n", r.stats.iterations,
               exact.stats.iterations);
 }
 
-TEST(IpoptSolver, OptionsPassThroughAndUnknownNamesAreRejected) {
+TEST(IpoptSolver, OptionsPassThroughAndMalformedValuesAreRejected) {
   const IpoptSolver solver;
   SolveOptions o;
   o.backend_options = {{"tol", "1e-9"}, {"max_iter", "50"}, {"mu_strategy", "monotone"}};
   EXPECT_NO_THROW(solver.ValidateOptions(o));
-  o.backend_options = {{"no_such_ipopt_option", "1"}};
-  EXPECT_THROW(solver.ValidateOptions(o), InputError);
   o.backend_options = {{"max_iter", "many"}};
   EXPECT_THROW(solver.ValidateOptions(o), InputError);
   o.backend_options = {{"mu_strategy", "sometimes"}};
@@ -195,16 +187,6 @@ TEST(IpoptSolver, DetailsCarryIpoptsReturnCodeAndIterations) {
   EXPECT_GT(r.stats.iterations, d->iterations);
 }
 
-TEST(IpoptSolver, GravityWithoutSupportIsInfeasible) {
-  PrismParameters p;
-  p.n = 4;
-  p.gravity = true;
-  p.strut_mass = 0.1;  // no fixed node
-  const SolveResult r = IpoptSolver().Solve(make_regular_prism(p), no_shortcut(), DriverControls{false});
-  EXPECT_EQ(r.status, Status::Infeasible) << r.message;
-  EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
-}
-
 TEST(IpoptSolver, StartOptionIsCheckedAndAWarmStartReachesTheSameOptimum) {
   const IpoptSolver solver;
   SolveOptions bad;
@@ -256,7 +238,9 @@ TEST(IpoptSolver, AutoStartKeepsTheCloserOfTheWarmAndTheColdAnswer) {
     ASSERT_EQ(cold.status, Status::Converged) << name << ": " << cold.message;
     ASSERT_EQ(warm.status, Status::Converged) << name << ": " << warm.message;
     ASSERT_EQ(automatic.status, Status::Converged) << name << ": " << automatic.message;
-    EXPECT_TRUE(verify(s, automatic.positions, automatic.forces, SolveOptions{}.tolerance).ok) << name;
+    // The answer kept is the kept run's own.
+    const SolveResult& kept = cold_closer ? cold : warm;
+    EXPECT_LE((automatic.positions - kept.positions).cwiseAbs().maxCoeff(), 1e-9 * scene_size(s)) << name;
     const double nearer = std::min(cold.stats.geometry_change, warm.stats.geometry_change);
     const double farther = std::max(cold.stats.geometry_change, warm.stats.geometry_change);
     EXPECT_LT(nearer, 0.9 * farther) << name;
@@ -291,7 +275,12 @@ TEST(IpoptSolver, AutoStartCutsAWanderingRunFromTheScene) {
   o.backend_options = {{"start", "auto"}};
   const SolveResult r = IpoptSolver().Solve(s, o, DriverControls{false});
   ASSERT_EQ(r.status, Status::Converged) << r.message;
-  EXPECT_TRUE(verify(s, r.positions, r.forces, SolveOptions{}.tolerance).ok);
+  // The warm answer is returned: the run from alternating-gn's equilibrium alone.
+  SolveOptions warm = no_shortcut();
+  warm.backend_options = {{"start", "alternating-gn"}};
+  const SolveResult warm_only = IpoptSolver().Solve(s, warm, DriverControls{false});
+  ASSERT_EQ(warm_only.status, Status::Converged) << warm_only.message;
+  EXPECT_NEAR(r.stats.geometry_change, warm_only.stats.geometry_change, 1e-9 * warm_only.stats.geometry_change);
   const auto* details = dynamic_cast<const IpoptDetails*>(r.details.empty() ? nullptr : r.details.front().get());
   ASSERT_NE(details, nullptr);
   EXPECT_EQ(details->cold_start_iterations, 100);
@@ -336,7 +325,14 @@ TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
     EXPECT_EQ(by_default.stats.geometry_change, capped.stats.geometry_change) << name << ": cap is the default";
     ASSERT_EQ(held.status, Status::Converged) << name << ": " << held.message;
     ASSERT_EQ(capped.status, Status::Converged) << name << ": " << capped.message;
-    EXPECT_TRUE(verify(s, capped.positions, capped.forces, SolveOptions{}.tolerance).ok) << name;
+    // The cap is active (below), so this is also an optimum of nlopt's Eq. 5,
+    // which holds the mean cable force at W: nlopt ends there too.
+    const SolveResult nlopt = make_solver("nlopt")->Solve(s, SolveOptions{}, DriverControls{false});
+    ASSERT_EQ(nlopt.status, Status::Converged) << name << ": " << nlopt.message;
+    std::printf("[ %s ] held %.10g, capped %.10g, nlopt %.10g\n", name.c_str(), held.stats.geometry_change,
+                capped.stats.geometry_change, nlopt.stats.geometry_change);
+    EXPECT_NEAR(capped.stats.geometry_change, nlopt.stats.geometry_change,
+                kSameOptimumGeometryChange * nlopt.stats.geometry_change) << name;
     const ForceScale scale = make_force_scale(s);
     const double cable_sum = scale.normalisation_row.dot(capped.forces);
     EXPECT_NEAR(cable_sum, scale.prestress_cap, 1e-6 * scale.prestress_cap) << name;

@@ -9,17 +9,28 @@
 //   EXPECT_TRUE(is_one_line(r.err));
 //   EXPECT_TRUE(dir.work_files().empty());
 //
+// A run that the test must watch or signal meanwhile starts in the background:
+//
+//   const pid_t pid = start_program({"batch", scene, "--jobs", "2"}, dir.logs());
+//   ...                                                   // signal it, read /proc
+//   const int status = wait_program(pid, 60);              // raw waitpid status
+//
 // Needs TENSEGRITY_BINARY (tests/CMakeLists.txt defines it).
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace tensegrity::testing {
@@ -70,6 +81,43 @@ inline ProgramRun run_program(const std::vector<std::string>& args, const std::f
   r.out = read_text(logs_dir / "stdout");
   r.err = read_text(logs_dir / "stderr");
   return r;
+}
+
+// `tensegrity ARGS...` started in the background (no shell, no `timeout`, so
+// the pid is the program's own), stdout and stderr into files in `logs_dir`.
+inline pid_t start_program(const std::vector<std::string>& args, const std::filesystem::path& logs_dir) {
+  std::vector<std::string> all = {TENSEGRITY_BINARY};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const std::string out = (logs_dir / "stdout").string(), err = (logs_dir / "stderr").string();
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(o, 1);
+    ::dup2(e, 2);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+// waitpid with a limit; a program still running then is killed (and the test fails).
+inline int wait_program(pid_t pid, double limit_s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  for (;;) {
+    int status = 0;
+    if (::waitpid(pid, &status, WNOHANG) == pid) return status;
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > limit_s) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      ADD_FAILURE() << "program still running after " << limit_s << " s";
+      return status;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
 }
 
 // A fresh pair of folders under the system temp folder: work() for the files
