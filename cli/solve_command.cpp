@@ -1,9 +1,10 @@
-// tensegrity solve SCENE [--solver NAME] [--out FILE] [--tol T] [--option k=v]... [--trace FILE]
+// tensegrity solve SCENE [--solver NAME] [--out FILE] [--tol T] [--prestress-factor K] [--option k=v]... [--trace FILE]
 //                       [--out-scene FILE] [--verbose | --quiet]
 //
 // On a terminal, a solve that runs longer than a moment shows its iteration,
 // relative residual and time on one line of standard error (cli/progress.hpp).
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -12,6 +13,7 @@
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
 #include "cli/progress.hpp"
+#include "formulations/force_scale.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 
@@ -27,6 +29,7 @@ struct SolveArgs {
   double tol = 1e-8;
   int max_iterations = 0;
   double time_limit = 120.0;
+  double prestress_factor = kDefaultPrestressFactor;
   bool verbose = false;
   bool quiet = false;
   bool no_skip = false;
@@ -73,6 +76,9 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
   cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget"));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds");
+  cmd->add_option("--prestress-factor", args->prestress_factor,
+                  "kappa: under gravity Eq. 5 caps the mean cable force at kappa times the part's weight "
+                  "(finite, > 0; default 1; docs/THEORY-force-scale.md)");
   cmd->add_option("--option", args->options, "Backend option key=value (repeatable)");
   cmd->add_option("--trace", args->trace, "Write the per-iteration record as CSV");
   cmd->add_option("--out-scene", args->out_scene,
@@ -88,6 +94,9 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
       options.tolerance = args->tol;
       options.max_iterations = args->max_iterations;
       options.time_limit_s = args->time_limit;
+      if (!(std::isfinite(args->prestress_factor) && args->prestress_factor > 0.0))
+        throw InputError("command line", "--prestress-factor", "must be a finite number > 0");
+      options.prestress_factor = args->prestress_factor;
       options.verbose = args->verbose;
       DriverControls controls;
       controls.skip_if_in_equilibrium = !args->no_skip;

@@ -95,10 +95,30 @@ TEST_F(CliSolve, BadToleranceAndUnknownSolverAreUsageErrors) {
   const std::string out = (dir / "never.json").string();
   for (const auto& [option, value] : std::vector<std::pair<std::string, std::string>>{
            {"--tol", "0"}, {"--tol", "-1"}, {"--tol", "nan"}, {"--tol", "inf"}, {"--solver", "nosuch"},
-           {"--option", "nosuchkey=1"}}) {
+           {"--option", "nosuchkey=1"}, {"--prestress-factor", "0"}, {"--prestress-factor", "-2"},
+           {"--prestress-factor", "inf"}}) {
     EXPECT_EQ(run_cli({"solve", scene, "--out", out, option, value}).exit_status, 2) << option << " " << value;
     EXPECT_FALSE(fs::exists(out)) << option << " " << value;
   }
+}
+
+// `--prestress-factor` reaches Eq. 5: the reference gravity prism-7 stands at
+// forces above its weight, so with the cap at kappa = 1 Eq. 5 must move it,
+// and a larger kappa lets the prestress balance more of the weight, which
+// shrinks the change; ipopt and nlopt agree on the optimum at each kappa.
+TEST_F(CliSolve, PrestressFactorSetsEq5sCapUnderGravity) {
+  const std::string scene = std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/prism-7-gravity.scene.json";
+  auto change = [&](const std::string& solver, const std::string& kappa) {
+    const std::string out = (dir / (solver + "-" + kappa + ".json")).string();
+    const testing::ProgramRun r = run_cli({"solve", scene, "--solver", solver, "--no-skip", "--quiet",
+                                           "--prestress-factor", kappa, "--out", out});
+    EXPECT_EQ(r.exit_status, 0) << solver << " kappa " << kappa << ": " << r.err;
+    return nlohmann::json::parse(std::ifstream(out))["stats"]["geometry_change"].get<double>();
+  };
+  const double at_1 = change("ipopt", "1"), at_5 = change("ipopt", "5");
+  EXPECT_GT(at_1, 0.1);             // m: 0.378 measured
+  EXPECT_LT(at_5, 0.5 * at_1);      // 0.098 measured
+  EXPECT_NEAR(change("nlopt", "5"), at_5, 1e-6 * at_5);
 }
 
 // Every backend rejects an out-of-range option value the same way: exit 2, no
