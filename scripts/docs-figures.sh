@@ -924,6 +924,34 @@ EOF2
     echo
   } >>"$readme"
 
+  step "outputs: the duck's NTRT YAML round trip"
+  "$tg" build data/characters/duck.character.json --out "$w/duck.scene.json" 2>/dev/null
+  "$tg" export "$w/duck.scene.json" --out "$w/duck.yaml"
+  "$tg" import "$w/duck.yaml" --out "$w/back.scene.json"
+  {
+    echo "## The duck's NTRT YAML round trip (no picture)"
+    echo
+    echo "    tensegrity build data/characters/duck.character.json --out duck.scene.json"
+    echo "    tensegrity export duck.scene.json --out duck.yaml"
+    echo "    tensegrity import duck.yaml --out back.scene.json"
+    echo
+    "$py" - "$w/duck.scene.json" "$w/back.scene.json" <<'EOF2'
+import json, sys
+a, b = (json.load(open(f)) for f in sys.argv[1:3])
+def counts(s):
+    return len(s["nodes"]), len(s["elements"]), sum(1 for n in s["nodes"] if n.get("fixed", False))
+def elements(s):
+    return sorted((e["kind"], *sorted(e["nodes"])) for e in s["elements"])
+same = ([n["x"] for n in a["nodes"]] == [n["x"] for n in b["nodes"]]
+        and [n.get("fixed", False) for n in a["nodes"]] == [n.get("fixed", False) for n in b["nodes"]]
+        and elements(a) == elements(b))
+for label, s in (("duck.scene.json", a), ("back.scene.json", b)):
+    print(f"- {label}: %d nodes, %d elements, %d fixed" % counts(s))
+print(f"- positions bit for bit, fixed nodes and the set of elements identical: {'yes' if same else 'NO'}")
+print()
+EOF2
+  } >>"$readme"
+
   step "outputs: python/examples/compare_backends.py (time limit 20 s per backend)"
   [ -d "$build/python/tensegrity" ] || { echo "docs-figures: $build/python/tensegrity missing" >&2; exit 1; }
   local pyrecord="$docs/images/python-backends.md"
