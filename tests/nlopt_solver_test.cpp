@@ -138,11 +138,14 @@ TEST(NloptSolver, BudgetsBecomeStatusesNotConvergence) {
   instant.time_limit_s = 1e-9;
   const SolveResult late = solver.Solve(scene, instant, DriverControls{false});
   // The clock is read between NLopt's evaluations: a fast machine may reach a
-  // verified point first, which is then the answer of a run without the limit;
-  // anything else is the time limit.
+  // verified point first, an equilibrium on the way to the run without the
+  // limit (within 1 % of its change; the stop may come a step before its
+  // optimum); anything else is the time limit.
   if (late.status == Status::Converged) {
     const SolveResult unlimited = solver.Solve(scene, options_with(), DriverControls{false});
-    EXPECT_EQ(late.stats.geometry_change, unlimited.stats.geometry_change) << late.message;
+    EXPECT_NEAR(late.stats.geometry_change, unlimited.stats.geometry_change,
+                1e-2 * unlimited.stats.geometry_change)
+        << late.message;
   } else {
     EXPECT_EQ(late.status, Status::TimeLimit) << late.message;
   }
