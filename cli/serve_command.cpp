@@ -26,12 +26,14 @@
 #include "cli/commands.hpp"
 #include "cli/design_pipeline.hpp"
 #include "cli/fabrication_sheet.hpp"
+#include "cli/link_suggestion_report.hpp"
 #include "cli/output.hpp"
 #include "formulations/elastic_energy.hpp"
 #include "model/character.hpp"
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
 #include "model/scene_io.hpp"
+#include "simulation/link_suggestion.hpp"
 #include "simulation/simulator.hpp"
 
 // Last: it includes <resolv.h>, whose macros would break Eigen's headers.
@@ -168,6 +170,9 @@ class WebApp {
     });
     server.Post("/api/solve", [this](const httplib::Request& req, httplib::Response& res) { solve(req, res); });
     server.Post("/api/design", [this](const httplib::Request& req, httplib::Response& res) { design(req, res); });
+    server.Post("/api/suggest-link", [this](const httplib::Request& req, httplib::Response& res) {
+      suggest_link(req, res);
+    });
     server.Post("/api/simulation", [this](const httplib::Request& req, httplib::Response& res) {
       start_simulation(req, res);
     });
@@ -315,6 +320,45 @@ class WebApp {
     reply_json(res, {{"design", design_to_json(out.design)},
                      {"sheet", fabrication_sheet_csv(out.design, out.rest.lengths)},
                      {"strain_range", {out.strain_range.first, out.strain_range.second}}});
+  }
+
+  // A whole number option of the request, or `fallback`.
+  static int integer_param(const httplib::Request& req, const nlohmann::json& body, const char* key, int fallback) {
+    const double v = number_param(req, body, key, fallback);
+    if (v != std::floor(v) || std::abs(v) > 1e6) throw InputError(kRequestSource, key, "must be an integer");
+    return static_cast<int>(v);
+  }
+
+  // Body {"character": character JSON, "a": id, "b": id, "axis": [x, y, z] | "stiff": true,
+  // "range", "faces", "cables", "cable_ea", "solver"} (suggest-link's options, its defaults).
+  // Answer: the ranking as suggest-link --json writes it; blocks from the served library.
+  void suggest_link(const httplib::Request& req, httplib::Response& res) const {
+    const nlohmann::json body = body_json(req);
+    if (!body.is_object() || !body.contains("character"))
+      throw InputError(kRequestSource, "character", "missing (a character)");
+    const nlohmann::json& character = body.at("character");
+    json_expect_header(character, "tensegrity-character", kRequestSource);
+    SuggestLinkSettings settings;
+    if (body.contains("axis")) {
+      const Eigen::Vector3d axis = json_vector3(body.at("axis"), kRequestSource, "axis");
+      settings.axis = {axis.x(), axis.y(), axis.z()};
+    }
+    if (body.contains("stiff")) {
+      if (!body.at("stiff").is_boolean()) throw InputError(kRequestSource, "stiff", "expected true or false");
+      settings.stiff = body.at("stiff").get<bool>();
+    }
+    settings.range_deg = number_param(req, body, "range", settings.range_deg);
+    settings.faces = integer_param(req, body, "faces", settings.faces);
+    settings.cables = integer_param(req, body, "cables", settings.cables);
+    settings.cable_ea = number_param(req, body, "cable_ea", settings.cable_ea);
+    settings.solver = string_param(req, body, "solver");
+    const CheckedLinkSettings checked = check_link_settings(settings);
+    const std::string a = string_param(req, body, "a"), b = string_param(req, body, "b");
+    if (a.empty()) throw InputError(kRequestSource, "a", "missing (the id of the first block)");
+    if (b.empty()) throw InputError(kRequestSource, "b", "missing (the id of the second block)");
+    const auto ranked = suggest_links(character, kRequestSource, library_, a, b, checked.request, checked.options);
+    const bool named = character.contains("name") && character.at("name").is_string();
+    reply_json(res, link_suggestions_json(ranked, named ? character.at("name").get<std::string>() : kRequestSource, a, b));
   }
 
   static nlohmann::json state_json(const Session& s) {

@@ -30,6 +30,7 @@ let buildRequests = 0;
 
 export async function characterChanged(frame = false) {
   $('character-json').value = JSON.stringify(state.character, null, 2);
+  $('suggestions').replaceChildren();  // ranked for the character before the edit
   refreshEditor();
   state.solution = null;
   state.design = null;
@@ -149,13 +150,9 @@ export function wireEditor() {
       const part = $(`link-${side}-part`).value;
       return part ? { block, [type === 'face' ? 'face' : 'cable']: part } : { block };
     };
-    editCharacter((c) => {
-      const ids = new Set(c.links.map((l) => l.id));
-      let id = `${a}-${b}`;
-      for (let k = 2; ids.has(id); ++k) id = `${a}-${b}-${k}`;
-      c.links.push({ id, type, a: end('a', a), b: end('b', b) });
-    });
+    addLink(type, end('a', a), end('b', b));
   };
+  $('suggest-link').onclick = suggestLinks;
   $('delete-link').onclick = () => {
     const id = $('link-select').value;
     if (id) editCharacter((c) => { c.links = c.links.filter((l) => l.id !== id); });
@@ -178,6 +175,79 @@ export function wireEditor() {
     try { parsed = JSON.parse($('character-json').value); } catch (err) { return showMessage(`character file: ${err.message}`); }
     editCharacter((c) => { for (const k of Object.keys(c)) delete c[k]; Object.assign(c, parsed); });
   };
+}
+
+function addLink(type, endA, endB) {
+  return editCharacter((c) => {
+    const ids = new Set(c.links.map((l) => l.id));
+    let id = `${endA.block}-${endB.block}`;
+    for (let k = 2; ids.has(id); ++k) id = `${endA.block}-${endB.block}-${k}`;
+    c.links.push({ id, type, a: endA, b: endB });
+  });
+}
+
+// The links between the two chosen blocks, ranked by the server as
+// `tensegrity suggest-link` ranks them; a row shows its ends, Apply adds it.
+let suggestRequests = 0;
+async function suggestLinks() {
+  const a = $('link-a-block').value, b = $('link-b-block').value;
+  if (!a || !b || a === b) return showMessage('pick two different blocks to link');
+  const want = $('suggest-want').value;
+  const axis = { x: [1, 0, 0], y: [0, 1, 0], z: [0, 0, 1] }[want];
+  const body = { character: state.character, a, b, range: Number($('suggest-range').value),
+    ...(axis ? { axis } : { stiff: true }) };
+  const request = ++suggestRequests;
+  $('suggestions').replaceChildren();
+  setStatus(`ranking the links between ${a} and ${b}...`);
+  try {
+    const ranking = await api('/api/suggest-link', body);
+    if (request !== suggestRequests) return;
+    showSuggestions(ranking, !axis);
+    setStatus(`${ranking.candidates.length} links between ${a} and ${b} ranked (${axis ? `hinge about ${want}` : 'stiffest'})`);
+    showMessage('');
+  } catch (err) {
+    if (request !== suggestRequests) return;
+    setStatus('no link suggestions');
+    showMessage(err.message);
+  }
+}
+
+function showSuggestions(ranking, stiff) {
+  const cell = (tag, text) => Object.assign(document.createElement(tag), { textContent: text });
+  const row = (tag, texts) => {
+    const tr = document.createElement('tr');
+    tr.append(...texts.map((t) => cell(tag, t)));
+    return tr;
+  };
+  const head = document.createElement('thead');
+  head.append(row('th', ['#', 'type', ranking.a, ranking.b, ...(stiff ? ['k_min', ''] : ['k_axis', 'k_perp']), '']));
+  const rows = document.createElement('tbody');
+  const k = (x) => x.toPrecision(4);
+  ranking.candidates.forEach((c, i) => {
+    const figures = !c.measured ? [c.status, ''] : stiff ? [k(c.principal_stiffness[0]), ''] : [k(c.about_axis), k(c.perpendicular)];
+    const tr = row('td', [String(i + 1), c.type, c.a, c.b, ...figures]);
+    const apply = cell('button', 'Apply');
+    apply.className = 'apply-suggestion';
+    apply.disabled = !c.measured;
+    apply.onclick = (ev) => { ev.stopPropagation(); addLink(c.link.type, c.link.a, c.link.b); };
+    tr.append(Object.assign(document.createElement('td'), { className: 'apply' }));
+    tr.lastChild.append(apply);
+    tr.onclick = () => showLinkEnds(c.link);
+    rows.append(tr);
+  });
+  $('suggestions').replaceChildren(head, rows);
+  $('suggestions').title = `rotational stiffness in ${ranking.units}`;
+}
+
+// The ends of `link` in the link fields, drawn on the blocks.
+function showLinkEnds(link) {
+  $('link-type').value = link.type;
+  for (const side of ['a', 'b']) {
+    $(`link-${side}-block`).value = link[side].block;
+    refreshLinkParts(side);
+    $(`link-${side}-part`).value = link[side][link.type === 'face' ? 'face' : 'cable'];
+  }
+  drawPicks();
 }
 
 // The move/rotate/scale handle of the selected block: its translation,
