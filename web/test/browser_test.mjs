@@ -121,7 +121,7 @@ async function simulate(page, realTime) {
 
 // Presses the mouse on `node`, moves it by (dx, dy) pixels, holds for `holdMs`.
 // Longest hold of a drag that waits for the node to follow the mouse.
-const MAX_DRAG_HOLD_MS = 20000;
+const MAX_DRAG_HOLD_MS = 60000;
 
 async function dragNode(page, node, dx, dy, holdMs, startPosition = null, minMove = 0) {
   const at = await page.evaluate((i) => window.tensegrityApp.nodeScreenPosition(i), node);
