@@ -84,6 +84,8 @@ export async function stopSimulation() {
   sim.running = false;
   state.sim = null;
   $('stop').disabled = true;
+  // A step request still on its way would find the simulation deleted (404).
+  if (sim.inflight) await sim.inflight;
   try { await api(`/api/simulation/${sim.id}`, undefined, 'DELETE'); } catch (err) { /* already gone */ }
 }
 
@@ -106,7 +108,9 @@ async function simulationLoop(sim) {
     const drags = sim.drag ? [{ node: sim.drag.node, target: sim.drag.target }] : [];
     let r;
     try {
-      r = await api(`/api/simulation/${sim.id}/step`, { steps, drags });
+      const request = api(`/api/simulation/${sim.id}/step`, { steps, drags });
+      sim.inflight = request.catch(() => {});
+      r = await request;
     } catch (err) {
       showMessage(err.message);
       sim.running = false;
