@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include "kernels/stress_qp_impl.hpp"
+#include "model/json_text.hpp"
 
 namespace tensegrity {
 
@@ -359,16 +359,6 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
   return report(st);
 }
 
-namespace {
-
-std::string short_number(double v) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g", v);
-  return text;
-}
-
-}  // namespace
-
 // Without certify_optimum every KKT point counts; with it, an objective at
 // rounding level needs no bound, and any other needs one near it.
 bool StressQp::certified(SolveState& st, StressQpResult& result) {
@@ -435,18 +425,18 @@ StressQpResult StressQp::report(SolveState& st) {
                                       : "a factorization failed or a value was not finite";
   } else if (result.kkt_error > st.tolerance) {
     result.status = StressQpStatus::IterationLimit;
-    result.message = "stopped before the KKT conditions were met (error " + short_number(result.kkt_error) +
-                     ", tolerance " + short_number(st.tolerance) + ")";
+    result.message = "stopped before the KKT conditions were met (error " + message_number(result.kkt_error) +
+                     ", tolerance " + message_number(st.tolerance) + ")";
   } else if (!certified(st, result)) {
     result.status = StressQpStatus::IterationLimit;
-    result.message = "KKT conditions met to " + short_number(result.kkt_error) +
+    result.message = "KKT conditions met to " + message_number(result.kkt_error) +
                      ", but not certified: the objective's lower bound is " +
-                     short_number(result.objective_lower_bound) + " against " + short_number(result.objective) +
+                     message_number(result.objective_lower_bound) + " against " + message_number(result.objective) +
                      " (an ill-conditioned free set: the optimum may be much lower)";
   } else {
     result.status = StressQpStatus::Optimal;
-    result.message = "KKT conditions met to " + short_number(result.kkt_error) + " (tolerance " +
-                     short_number(st.tolerance) + ")";
+    result.message = "KKT conditions met to " + message_number(result.kkt_error) + " (tolerance " +
+                     message_number(st.tolerance) + ")";
   }
   result.optimal = result.status == StressQpStatus::Optimal;
   return result;

@@ -11,6 +11,7 @@
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
 #include "kernels/stress_qp.hpp"
+#include "model/json_text.hpp"
 #include "model/errors.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
@@ -24,12 +25,6 @@ namespace {
 constexpr int kForcesPolishSteps = 2000;
 // The relative residual below which that polish runs.
 constexpr double kPolishToOptimumBelow = 1e-3;
-
-std::string short_number(double v) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3g", v);
-  return text;
-}
 
 using Clock = std::chrono::steady_clock;
 
@@ -118,12 +113,12 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   } else if (qr.status == StressQpStatus::Optimal && v.relative_residual * proven_fraction > options.tolerance) {
     r = unchanged_part(part, qr.sigma, Status::Infeasible,
                        "the scene geometry is not a tensegrity (the stress QP's optimum has relative residual " +
-                           short_number(v.relative_residual) + ", proven at least " +
-                           short_number(v.relative_residual * proven_fraction) + "; " + qr.message + ")");
+                           message_number(v.relative_residual) + ", proven at least " +
+                           message_number(v.relative_residual * proven_fraction) + "; " + qr.message + ")");
   } else if (qr.status != StressQpStatus::NumericalFailure) {
     r = unchanged_part(part, qr.sigma, Status::MaxIterations,
                        "the stress QP stopped without a proof either way (relative residual " +
-                           short_number(v.relative_residual) + "; " + qr.message + ")");
+                           message_number(v.relative_residual) + "; " + qr.message + ")");
   } else {
     r = unchanged_part(part, qr.sigma, Status::NumericalError, "the stress QP failed: " + qr.message);
   }
@@ -286,7 +281,7 @@ SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, c
     Eigen::VectorXd initial_forces;
     SolveOptions backend_options = part_options;
     if (controls.skip_if_in_equilibrium) {
-      const auto checked = std::chrono::steady_clock::now();
+      const Clock::time_point checked = Clock::now();
       SolveResult shortcut = forces_at_own_geometry(part, part_options);
       if (shortcut.status == Status::Converged) return shortcut;
       // The check's time counts against the part's limit.
