@@ -18,6 +18,7 @@ function download(name, text, type) {
   a.href = typeof text === 'string' && text.startsWith('data:') ? text : URL.createObjectURL(new Blob([text], { type }));
   a.download = name;
   a.click();
+  return true;  // the exporters below answer whether there was something to export
 }
 
 function wireExport() {

@@ -277,6 +277,8 @@ async function runTest(binary, screenshot) {
     const [png] = await Promise.all([page.waitForEvent('download'), page.click('[data-export="png"]')]);
     const bytes = readFileSync(await png.path());
     check(bytes.subarray(1, 4).toString() === 'PNG' && bytes.length > 10000, `PNG export (${bytes.length} bytes)`);
+    const message = await page.evaluate(() => document.getElementById('message').textContent);
+    check(!message.includes('nothing to export'), `an export that downloads says nothing is missing ("${message}")`);
     await page.screenshot({ path: screenshot });
     check(errors.length === 0, `no errors in the page${errors.length ? ': ' + errors.join('; ') : ''}`);
     console.log(`screenshot: ${screenshot}`);
