@@ -146,9 +146,11 @@ async function dragNode(page, node, dx, dy, holdMs, startPosition = null, minMov
   const [steps1, requests1] = await count();
   const seconds = (Date.now() - t0) / 1000;
   const dragging = await page.evaluate(() => !!window.tensegrityApp.state.sim.drag);
+  // Read while still holding: once released, the node springs back.
+  const held = await page.evaluate((i) => window.tensegrityApp.state.view.positions[i], node);
   await page.mouse.up();
   return { rate: (steps1 - steps0) / seconds, answers: (requests1 - requests0) / seconds, steps: steps1 - steps0, seconds,
-    dragging };
+    dragging, held };
 }
 
 const DUCK = path.join(path.dirname(new URL(import.meta.url).pathname), '..', '..', 'data', 'characters', 'duck.character.json');
@@ -259,7 +261,7 @@ async function runTest(binary, screenshot) {
     });
     const drag = await dragNode(page, node, 120, -60, 1500, start, 0.05 * size);
     check(drag.dragging, 'the mouse grabbed a node');
-    const end = (await view(page)).positions[node];
+    const end = drag.held;
     const moved = Math.hypot(end[0] - start[0], end[1] - start[1], end[2] - start[2]);
     check(moved > 0.05 * size, `dragging moved node ${node} by ${(1000 * moved).toFixed(1)} mm (structure ${(1000 * size).toFixed(0)} mm)`);
     const simText = await page.textContent('#sim-result');
