@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
@@ -137,6 +139,18 @@ TEST(IpoptSolver, OptionsPassThroughAndMalformedValuesAreRejected) {
   EXPECT_THROW(solver.ValidateOptions(o), InputError);
   o.backend_options = {{"tol", "-1"}};
   EXPECT_THROW(solver.ValidateOptions(o), InputError);
+  // A misspelt key names the Ipopt option it misspells; a distant one names the valid kinds.
+  for (const auto& [key, intended] : std::vector<std::pair<std::string, std::string>>{
+           {"max_itr", "did you mean 'max_iter'?"}, {"strat", "did you mean 'start'?"},
+           {"bogus_key", "valid: start, prestress, or any option of Ipopt's own list"}}) {
+    o.backend_options = {{key, "1"}};
+    try {
+      solver.ValidateOptions(o);
+      ADD_FAILURE() << key << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(intended), std::string::npos) << e.what();
+    }
+  }
 
   // max_iter passed through wins over max_iterations (one run: start=scene).
   SolveOptions budget = no_shortcut();

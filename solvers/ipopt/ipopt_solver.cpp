@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "formulations/equilibrium.hpp"
@@ -15,6 +16,7 @@
 #include "formulations/minimal_geometry_change_nlp.hpp"
 #include "kernels/stress_qp.hpp"
 #include "model/errors.hpp"
+#include "model/known_keys.hpp"
 #include "model/verify.hpp"
 #include "solvers/ipopt/dimensionless_eq5.hpp"
 #include "solvers/option_reader.hpp"
@@ -88,12 +90,24 @@ std::string valid_values(const Ipopt::RegisteredOption& reg) {
   }
 }
 
+// Why `key` is refused: the closest of the project's keys and Ipopt's own
+// (several hundred, so they are named, not listed), when it is a typo of one.
+std::string unknown_key_reason(Ipopt::IpoptApplication& app, const std::string& key) {
+  std::vector<std::string_view> known = {kStartKey, kPrestressKey};
+  for (const auto& [name, option] : app.RegOptions()->RegisteredOptionsList()) known.push_back(name);
+  const std::string intended = misspelled_key(key, known);
+  const std::string valid = "valid: start, prestress, or any option of Ipopt's own list, e.g. tol, max_iter, "
+                            "mu_strategy, linear_solver";
+  return intended.empty() ? "unknown option (" + valid + ")"
+                          : "unknown option (did you mean '" + intended + "'?; " + valid + ")";
+}
+
 // `key=value` typed by Ipopt's own registry; OptionError when Ipopt does not
 // know the key or rejects the value.
 IpoptOption typed_native_option(Ipopt::IpoptApplication& app, const std::string& key, const std::string& value) {
   auto fail = [&](const std::string& reason) { throw OptionError("ipopt", key, value, reason); };
   Ipopt::SmartPtr<const Ipopt::RegisteredOption> reg = app.RegOptions()->GetOption(key);
-  if (Ipopt::IsNull(reg)) fail("not an Ipopt option");
+  if (Ipopt::IsNull(reg)) fail(unknown_key_reason(app, key));
   IpoptOption option{key, value};
   bool accepted = false;
   switch (reg->Type()) {
