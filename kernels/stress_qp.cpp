@@ -293,6 +293,12 @@ double Impl::regularised_objective(const SolveState& st, const Eigen::VectorXd& 
   return 0.5 * (r.squaredNorm() + w2 * e * e + mu * (x - center).squaredNorm());
 }
 
+double Impl::mu_free_objective(const SolveState& st, const Eigen::VectorXd& x) {
+  evaluate(st, x, 0.0);
+  const double e = c.dot(x) - target;
+  return r.squaredNorm() + w2 * e * e;
+}
+
 double Impl::gradient_scale(const SolveState& st, const Eigen::VectorXd& x) const {
   return std::max({f0, x.lpNorm<Eigen::Infinity>(), st.fg_max});
 }

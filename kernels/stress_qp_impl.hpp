@@ -158,6 +158,9 @@ struct Impl {
   void evaluate(const SolveState& st, const Eigen::VectorXd& x, double mu_term);
   // Half the regularised objective at x; leaves r and g evaluated there.
   double regularised_objective(const SolveState& st, const Eigen::VectorXd& x);
+  // |A x + f_g|^2 + w^2 (c^T x - t)^2 (no mu term, not halved); leaves r and
+  // the mu-free g evaluated there.
+  double mu_free_objective(const SolveState& st, const Eigen::VectorXd& x);
   // The scale of gradients and forces that the tolerances are relative to.
   double gradient_scale(const SolveState& st, const Eigen::VectorXd& x) const;
 

@@ -58,13 +58,8 @@ bool conjugate_gradients(Impl& q, const SparseMatrix& A, const Eigen::VectorXd& 
 // inside an iteration, whose geometry changes again at once).
 void Impl::polish_free_set(const StressQpOptions& options, SolveState& st) {
   const SparseMatrix& A = *st.A;
-  auto residual_objective = [&]() {
-    evaluate(st, s, 0.0);
-    const double e = c.dot(s) - target;
-    return r.squaredNorm() + w2 * e * e;
-  };
   bool refactor = true;
-  double current = residual_objective();
+  double current = mu_free_objective(st, s);
   for (int k = 0; k < options.max_polish_steps; ++k) {
     const double scale = gradient_scale(st, s);
     if (current <= std::pow(C::kCgRoundingFactor * kEps * scale, 2)) break;
@@ -105,7 +100,7 @@ void Impl::polish_free_set(const StressQpOptions& options, SolveState& st) {
     }
     ++st.polish_steps;
     const bool slow = -change < C::kSlowProgress * current;
-    current = residual_objective();
+    current = mu_free_objective(st, s);
     refactor = alpha < 1.0;
     if (slow && !refactor) break;
   }
@@ -125,12 +120,7 @@ void Impl::polish(const StressQpOptions& options, SolveState& st) {
 // bound and its release (a step blocked at once by the force it just freed).
 void Impl::polish_to_optimum(const StressQpOptions& options, SolveState& st) {
   const SparseMatrix& A = *st.A;
-  auto residual_objective = [&]() {
-    evaluate(st, s, 0.0);
-    const double e = c.dot(s) - target;
-    return r.squaredNorm() + w2 * e * e;
-  };
-  double current = residual_objective();
+  double current = mu_free_objective(st, s);
   // Start from the forces at a bound whose gradient points out of the box.
   for (int i = 0; i < m; ++i) held[i] = (s[i] <= lower[i] && g[i] >= 0.0) || (s[i] >= upper[i] && g[i] <= 0.0);
   for (int k = 0; k < options.max_polish_steps; ++k) {
@@ -174,7 +164,7 @@ void Impl::polish_to_optimum(const StressQpOptions& options, SolveState& st) {
       break;
     }
     ++st.polish_steps;
-    current = residual_objective();
+    current = mu_free_objective(st, s);
     if (blocking >= 0) {
       held[blocking] = 1;
       continue;
@@ -220,9 +210,7 @@ double Impl::objective_lower_bound(SolveState& st) {
   trial = s;
   for (int i = 0; i < m; ++i)
     if (!held[i]) trial[i] += d[i];
-  evaluate(st, trial, 0.0);
-  const double e = c.dot(trial) - target;
-  const double at_trial = r.squaredNorm() + w2 * e * e;
+  const double at_trial = mu_free_objective(st, trial);
   const double allowed = st.tolerance * scale;
   double charge = 0.0;
   bool dual_feasible = std::isfinite(at_trial);
