@@ -153,6 +153,13 @@ class StressQp {
   // Cold start from the reference forces (+F0 cables, -F0 struts, projected).
   StressQpResult solve();
 
+  // Switches the polish for the following solves (StressQpOptions::
+  // polish_to_optimum, max_polish_steps) without a new analysis of the pattern.
+  void set_polish(bool to_optimum, int max_steps) {
+    options_.polish_to_optimum = to_optimum;
+    options_.max_polish_steps = max_steps;
+  }
+
   const ForceScale& scale() const { return scale_; }
   const StressQpOptions& options() const { return options_; }
 

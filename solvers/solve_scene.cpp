@@ -92,11 +92,8 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   // the optimum, an active-set method, finishes from there. Far from one
   // (a scene to be solved) it would only cost time.
   if (!v.ok && v.relative_residual <= kPolishToOptimumBelow && qr.status != StressQpStatus::NumericalFailure) {
-    StressQpOptions exact = qp_options;
-    exact.polish_to_optimum = true;
-    exact.max_polish_steps = kForcesPolishSteps;
-    StressQp exact_qp(eq, scale, exact);
-    StressQpResult polished = exact_qp.solve(qr.sigma);
+    qp.set_polish(true, kForcesPolishSteps);
+    StressQpResult polished = qp.solve(qr.sigma);
     const Verification pv = verify(part, part.positions, polished.sigma, options.tolerance);
     if (polished.status != StressQpStatus::NumericalFailure && pv.relative_residual <= v.relative_residual) {
       polished.iterations += qr.iterations;
