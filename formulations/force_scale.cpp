@@ -44,6 +44,22 @@ ForceScale make_force_scale(const Structure& s, double margin_fraction, double p
   return scale;
 }
 
+ForceScale held_at_prestress_cap(const ForceScale& scale) {
+  ForceScale held = scale;
+  if (scale.has_prestress_cap()) {
+    held.load_sets_scale = false;
+    held.normalisation_target = scale.prestress_cap;
+  }
+  return held;
+}
+
+bool exceeds_prestress_cap(const ForceScale& scale, const Eigen::VectorXd& sigma) {
+  // Relative slack of a cable sum that has rounded above an exactly held cap.
+  constexpr double kCapRoundingSlack = 1e-9;
+  if (!scale.has_prestress_cap() || sigma.size() != scale.normalisation_row.size()) return false;
+  return scale.normalisation_row.dot(sigma) > scale.prestress_cap * (1.0 + kCapRoundingSlack);
+}
+
 Eigen::VectorXd reference_forces(const Structure& s, const ForceScale& scale) {
   Eigen::VectorXd sigma(s.num_elements());
   for (int e = 0; e < s.num_elements(); ++e)

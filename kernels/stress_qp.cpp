@@ -19,6 +19,8 @@ const char* to_string(StressQpStatus status) {
   switch (status) {
     case StressQpStatus::Optimal: return "optimal";
     case StressQpStatus::IterationLimit: return "iteration_limit";
+    case StressQpStatus::Stalled: return "stalled";
+    case StressQpStatus::Uncertified: return "uncertified";
     case StressQpStatus::NumericalFailure: return "numerical_failure";
   }
   return "numerical_failure";
@@ -362,6 +364,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
   // The polish runs also after an iteration cap: on a free set that is
   // nearly right it often reaches equilibrium, which the caller verifies.
   if (st.ok && options_.max_polish_steps > 0) q.polish(options_, st);
+  if (options_.polish_to_optimum && st.polish_steps >= options_.max_polish_steps) st.hit_iteration_cap = true;
   return report(st);
 }
 
@@ -430,11 +433,16 @@ StressQpResult StressQp::report(SolveState& st) {
     result.message = eq_.degenerate() ? "a zero-length or non-finite element has no direction"
                                       : "a factorization failed or a value was not finite";
   } else if (result.kkt_error > st.tolerance) {
-    result.status = StressQpStatus::IterationLimit;
-    result.message = "stopped before the KKT conditions were met (error " + message_number(result.kkt_error) +
+    result.status = st.hit_iteration_cap ? StressQpStatus::IterationLimit : StressQpStatus::Stalled;
+    result.message = std::string(st.hit_iteration_cap ? "step cap reached (max_iterations " +
+                                                            std::to_string(options_.max_iterations) +
+                                                            ", max_polish_steps " +
+                                                            std::to_string(options_.max_polish_steps) + ")"
+                                                      : "no further progress") +
+                     " before the KKT conditions were met (error " + message_number(result.kkt_error) +
                      ", tolerance " + message_number(st.tolerance) + ")";
   } else if (!certified(st, result)) {
-    result.status = StressQpStatus::IterationLimit;
+    result.status = StressQpStatus::Uncertified;
     result.message = "KKT conditions met to " + message_number(result.kkt_error) +
                      ", but not certified: the objective's lower bound is " +
                      message_number(result.objective_lower_bound) + " against " + message_number(result.objective) +

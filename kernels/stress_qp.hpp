@@ -42,7 +42,7 @@
 // pointing out of the box) and, with certify_optimum, that a lower bound
 // proves the optimum's objective at least a quarter of the returned one; only
 // then is a positive residual a proof that the geometry is not a tensegrity.
-// `IterationLimit` is no such proof.
+// `IterationLimit`, `Stalled` and `Uncertified` are no such proof.
 //
 // Limits: where [A; w c^T] has a null space only mu picks among equally good
 // forces, and double precision fixes that choice to about eps / mu relative;
@@ -100,9 +100,13 @@ struct StressQpOptions {
   bool IsValid() const;              // mu > 0, w >= 0, all finite, counts >= 0
 };
 
+// Only Optimal is a claim about the optimum; the next three are "no proof
+// either way", each saying why.
 enum class StressQpStatus {
-  Optimal,           // KKT conditions met: the residual is the optimum's
-  IterationLimit,    // stopped before certifying (iteration cap, or no progress)
+  Optimal,           // KKT conditions met (and certified when asked): the residual is the optimum's
+  IterationLimit,    // max_iterations spent before the KKT conditions were met
+  Stalled,           // no step made progress (at rounding level) before the KKT conditions were met
+  Uncertified,       // KKT conditions met, but certify_optimum found no lower bound near the objective
   NumericalFailure,  // a factorization failed, a value was not finite, or a degenerate element
 };
 const char* to_string(StressQpStatus status);

@@ -91,6 +91,7 @@ struct SolveState {
   bool settled = false;        // the active set has settled (projected Newton converged)
   bool interior_point_used = false;
   bool stuck = false;          // projected Newton cannot progress
+  bool hit_iteration_cap = false;  // stopped at StressQpOptions::max_iterations
   bool last_step_exact = false;
   int nonmonotone_left = 0;
   double best_objective = kInf;

@@ -78,7 +78,10 @@ void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
       st.settled = true;
       break;
     }
-    if (iteration >= options.max_iterations) break;
+    if (iteration >= options.max_iterations) {
+      st.hit_iteration_cap = true;
+      break;
+    }
     if (!projected_newton_step(st, record)) {
       if (st.interior_point_used) break;  // no progress is possible at rounding level
       st.stuck = true;  // unless the interior-point phase finds a better neighbourhood

@@ -20,6 +20,8 @@
 #   gravity-towers.md  the gravity tower family (compare_bench gravity-towers/),
 #                  every backend; gravity-towers.json is the raw output
 #   ipopt-starts.md  ipopt's starts on gravity prisms and a tower; MUMPS orderings
+#   prestress-factor.md  Eq. 5's cap kappa (--prestress-factor) against the
+#                  geometry change, ipopt and alternating-gn, gravity scenes and characters
 #   ipopt-auto-stress.md  ipopt start=scene against start=auto over the stress
 #                  test (only when FIGURES_SECTIONS names ipopt_auto_stress)
 #   *.png          report.py's plots of the comparison and scaling runs
@@ -41,7 +43,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends stress_noise scaling stress_families ipopt_starts
-# gravity_towers; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# gravity_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -969,9 +971,52 @@ EOF2
   } >>"$pyrecord"
 }
 
+prestress_factor() {
+  step "prestress-factor.md: Eq. 5's cap kappa on the gravity scenes and characters"
+  local kappas="1 2 5 10 20" scenes=()
+  for f in data/reference/*-gravity.scene.json; do scenes+=("$f"); done
+  for c in duck puppy scorpion; do
+    "$tg" build "data/characters/$c.character.json" --out "$work/$c.scene.json" >/dev/null
+    scenes+=("$work/$c.scene.json")
+  done
+  header "$out/prestress-factor.md" "The prestress cap kappa under gravity" \
+    "tensegrity solve SCENE --solver ipopt|alternating-gn --prestress-factor K --time-limit $limit"
+  {
+    echo "Geometry change (m) of each answer; \`-\` where the solve did not converge (its status in"
+    echo "brackets). alternating-gn: \`H\` where its free answer lay above the cap and the answer"
+    echo "comes from the run held at the cap (docs/THEORY-force-scale.md)."
+    echo
+    printf '| scene | backend |'; for k in $kappas; do printf ' kappa = %s |' "$k"; done; echo
+    printf '|---|---|'; for k in $kappas; do printf -- '---:|'; done; echo
+    for scene in "${scenes[@]}"; do
+      name=$(basename "$scene" .scene.json)
+      for solver in ipopt alternating-gn; do
+        printf '| %s | %s |' "$name" "$solver"
+        for k in $kappas; do
+          "$tg" solve "$scene" --solver "$solver" --prestress-factor "$k" --time-limit "$limit" --quiet \
+            --out "$work/k.json" >/dev/null 2>&1 || true
+          "$py" - "$work/k.json" <<'EOF2'
+import json, sys
+d = json.load(open(sys.argv[1]))
+details = d.get("details") or {}
+if isinstance(details, list):
+    details = details[0] if details else {}
+held = "H" if details.get("held_at_prestress_cap") else ""
+if d["status"] == "converged":
+    print(f" {d['stats']['geometry_change']:.4f}{held} |", end="")
+else:
+    print(f" - ({d['status']}) |", end="")
+EOF2
+        done
+        echo
+      done
+    done
+  } >>"$out/prestress-factor.md"
+}
+
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends stress_noise scaling stress_families ipopt_starts gravity_towers}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends stress_noise scaling stress_families ipopt_starts gravity_towers prestress_factor}; do
   "$section"
 done
 step "done; figures in $out"

@@ -77,7 +77,8 @@ SolveResult unchanged_part(const Structure& part, Eigen::VectorXd forces, Status
 
 // The stress QP at the part's own geometry: Converged when it verifies,
 // Infeasible when the QP's optimum leaves a residual (a proof at this
-// geometry), MaxIterations when the QP stopped before certifying its optimum.
+// geometry), MaxIterations when the QP spent its step cap, Stalled when it
+// stopped short of a certified optimum otherwise.
 SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& options) {
   const ForceScale scale = make_force_scale(part, options.margin_fraction);
   Equilibrium eq(part);
@@ -113,7 +114,10 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
                            message_number(v.relative_residual) + ", proven at least " +
                            message_number(v.relative_residual * proven_fraction) + "; " + qr.message + ")");
   } else if (qr.status != StressQpStatus::NumericalFailure) {
-    r = unchanged_part(part, qr.sigma, Status::MaxIterations,
+    // A spent step cap is a budget; no progress, or an optimum without its
+    // certificate, is a stall.
+    const Status no_proof = qr.status == StressQpStatus::IterationLimit ? Status::MaxIterations : Status::Stalled;
+    r = unchanged_part(part, qr.sigma, no_proof,
                        "the stress QP stopped without a proof either way (relative residual " +
                            message_number(v.relative_residual) + "; " + qr.message + ")");
   } else {

@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "formulations/force_scale.hpp"
 #include "model/solution.hpp"
 #include "model/status.hpp"
 #include "model/structure.hpp"
@@ -43,7 +44,7 @@ struct SolveOptions {
   double margin_fraction = 1e-3;  // sign margin as a fraction of F0 (formulations/force_scale.hpp)
   // kappa of Eq. 5 under gravity: mean cable force at most kappa times the
   // part's weight (formulations/force_scale.hpp, kDefaultPrestressFactor).
-  double prestress_factor = 1.0;
+  double prestress_factor = kDefaultPrestressFactor;
   // Log to stderr: the backend's own log where it has one (prints_own_log),
   // else one line per iteration record from the driver.
   bool verbose = false;

@@ -398,6 +398,7 @@ TEST(AlternatingSolver, DetailsCountStressSolvesAndStalls) {
   EXPECT_EQ(j.at("stress_solves"), 2);
   EXPECT_EQ(j.at("stalls"), 1);
   EXPECT_EQ(j.at("sdc_from_iteration"), -1);
+  EXPECT_EQ(j.at("held_at_prestress_cap"), false);  // no gravity: no cap
   EXPECT_FALSE(j.contains("restarts"));
 }
 

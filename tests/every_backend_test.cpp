@@ -105,7 +105,12 @@ TEST_P(EveryBackend, ScaledScenesGiveScaledSolutions) {
     const Structure base = scenes::with_node_noise(make_regular_prism(p), noise, 11u);
     SCOPED_TRACE(gravity ? "under gravity" : "without gravity");
     const auto solver = make_solver(GetParam());
-    const SolveResult reference = solver->Solve(base, SolveOptions{}, DriverControls{false});
+    // Under gravity a binding cap (kappa = 1) fixes the force level; with the
+    // default (5) it does not bind here, and the answers agree only to 1e-9
+    // (eq5-newton) and 1e-6 (nlopt) with iteration counts that differ.
+    SolveOptions options;
+    options.prestress_factor = 1.0;
+    const SolveResult reference = solver->Solve(base, options, DriverControls{false});
     ASSERT_EQ(reference.status, Status::Converged) << reference.message;
     // Under gravity the alternating schemes may balance the scene where it stands.
     if (!gravity) {
@@ -114,7 +119,7 @@ TEST_P(EveryBackend, ScaledScenesGiveScaledSolutions) {
     for (double factor : {1e-3, 1e3}) {
       Structure scaled = base;
       scaled.positions *= factor;
-      const SolveResult r = solver->Solve(scaled, SolveOptions{}, DriverControls{false});
+      const SolveResult r = solver->Solve(scaled, options, DriverControls{false});
       ASSERT_EQ(r.status, Status::Converged) << r.message;
       const double position_error =
           (r.positions / factor - reference.positions).cwiseAbs().maxCoeff() / base.mean_element_length();

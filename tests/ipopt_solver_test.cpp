@@ -241,6 +241,7 @@ TEST(IpoptSolver, AutoStartKeepsTheCloserOfTheWarmAndTheColdAnswer) {
   const Structure prism8_near_parallel = scenes::make_family_case(prism8, "near-parallel", level, 0, 1);
   auto with_start = [](const char* start) {
     SolveOptions o = no_shortcut();
+    o.prestress_factor = 1.0;  // where the cap binds: the optima measured above
     o.backend_options = {{"start", start}};
     return o;
   };
@@ -325,29 +326,36 @@ TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
   bad.backend_options = {{"prestress", "loose"}};
   EXPECT_THROW(solver.ValidateOptions(bad), InputError);
 
+  // kappa = 1: the cap binds on both prisms (at the default, 5, it binds on neither).
+  constexpr double kBindingPrestressFactor = 1.0;
   SolveOptions capped_options;  // the default, named
+  capped_options.prestress_factor = kBindingPrestressFactor;
   capped_options.backend_options = {{"prestress", "cap"}};
-  SolveOptions held_options;
+  SolveOptions held_options = capped_options;
   held_options.backend_options = {{"prestress", "equal"}};
+  SolveOptions default_options = no_shortcut();
+  default_options.prestress_factor = kBindingPrestressFactor;
+  SolveOptions nlopt_options;
+  nlopt_options.prestress_factor = kBindingPrestressFactor;
   const std::string reference = std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/";
   for (const auto& [name, improves] : std::vector<std::pair<std::string, bool>>{{"prism-7-gravity", true},
                                                                                  {"prism-3-gravity", false}}) {
     const Structure s = read_scene_file(reference + name + ".scene.json");
     const SolveResult held = solver.Solve(s, held_options, DriverControls{false});
     const SolveResult capped = solver.Solve(s, capped_options, DriverControls{false});
-    const SolveResult by_default = solver.Solve(s, no_shortcut(), DriverControls{false});
+    const SolveResult by_default = solver.Solve(s, default_options, DriverControls{false});
     EXPECT_EQ(by_default.stats.geometry_change, capped.stats.geometry_change) << name << ": cap is the default";
     ASSERT_EQ(held.status, Status::Converged) << name << ": " << held.message;
     ASSERT_EQ(capped.status, Status::Converged) << name << ": " << capped.message;
     // The cap is active (below), so this is also an optimum of nlopt's Eq. 5,
     // which holds the mean cable force at W: nlopt ends there too.
-    const SolveResult nlopt = make_solver("nlopt")->Solve(s, SolveOptions{}, DriverControls{false});
+    const SolveResult nlopt = make_solver("nlopt")->Solve(s, nlopt_options, DriverControls{false});
     ASSERT_EQ(nlopt.status, Status::Converged) << name << ": " << nlopt.message;
     std::printf("[ %s ] held %.10g, capped %.10g, nlopt %.10g\n", name.c_str(), held.stats.geometry_change,
                 capped.stats.geometry_change, nlopt.stats.geometry_change);
     EXPECT_NEAR(capped.stats.geometry_change, nlopt.stats.geometry_change,
                 kSameOptimumGeometryChange * nlopt.stats.geometry_change) << name;
-    const ForceScale scale = make_force_scale(s);
+    const ForceScale scale = make_force_scale(s, SolveOptions{}.margin_fraction, kBindingPrestressFactor);
     const double cable_sum = scale.normalisation_row.dot(capped.forces);
     EXPECT_NEAR(cable_sum, scale.prestress_cap, 1e-6 * scale.prestress_cap) << name;
     const auto* details = dynamic_cast<const IpoptDetails*>(capped.details.empty() ? nullptr : capped.details.front().get());

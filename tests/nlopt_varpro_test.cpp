@@ -212,18 +212,19 @@ TEST(NloptVarpro, MatchesIpoptUnderGravity) {
   }
 }
 
-// The scorpion balances at Eq. 5's force level (the QP meets the prestress
-// cap exactly), so one QP solve returns it unchanged, bit for bit.
+// The scorpion balances at Eq. 5's force level with kappa = 1 (the QP meets
+// the prestress cap exactly), so one QP solve returns it unchanged, bit for bit.
 TEST(NloptVarpro, ScorpionAsBuiltIsReturnedUnchangedAfterOneQpSolve) {
   Structure scene =
       build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/scorpion.character.json").structure;
   SolveOptions options;
   options.time_limit_s = 60.0;
+  options.prestress_factor = 1.0;
   const SolveResult r = make_solver("nlopt")->Solve(scene, options, DriverControls{false});
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_EQ(r.stats.iterations, 0);
   EXPECT_TRUE(r.positions == scene.positions);
-  const ForceScale scale = make_force_scale(scene);
+  const ForceScale scale = make_force_scale(scene, options.margin_fraction, options.prestress_factor);
   EXPECT_NEAR(scale.normalisation_row.dot(r.forces), scale.prestress_cap, 1e-9 * scale.prestress_cap);
 }
 

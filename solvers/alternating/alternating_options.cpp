@@ -107,7 +107,8 @@ void AlternatingDetails::add_run(const AlternatingDetails& run, bool restart) {
 nlohmann::json AlternatingDetails::to_json() const {
   nlohmann::json j = {{"stress_solves", stress_solves},
                       {"non_optimal_stress_solves", non_optimal_stress_solves},
-                      {"stalls", stalls}};
+                      {"stalls", stalls},
+                      {"held_at_prestress_cap", held_at_prestress_cap}};
   if (gauss_newton) {
     j["restarts"] = restarts;
     j["interior_iterations"] = interior_iterations;

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,11 +34,37 @@ using SparseMatrix = Eigen::SparseMatrix<double>;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
 
+// The force scale of one run: the backend's own margin when it sets one, and
+// the cable sum held at the prestress cap for a held run.
+ForceScale part_force_scale(const Structure& part, const SolveOptions& options, double own_margin, bool hold_cap) {
+  const ForceScale scale =
+      make_force_scale(part, own_margin > 0.0 ? own_margin : options.margin_fraction, options.prestress_factor);
+  return hold_cap ? held_at_prestress_cap(scale) : scale;
+}
+
+// A converged run under gravity whose cable sum is above the prestress cap
+// is not an answer of Eq. 5's convention: the run is repeated with the cable
+// sum held at the cap (where the cap binds, the bound is an equality).
+bool exceeds_cap(const Structure& part, const SolveOptions& options, double own_margin, const SolveResult& r) {
+  return r.status == Status::Converged &&
+         exceeds_prestress_cap(part_force_scale(part, options, own_margin, false), r.forces);
+}
+
+// What is left of the caller's budgets after `used_seconds` and `used_iterations`.
+SolveOptions remaining_budget(const SolveOptions& options, double used_seconds, int used_iterations, int default_budget) {
+  SolveOptions rest = options;
+  rest.time_limit_s = options.time_limit_s - used_seconds;
+  rest.max_iterations = options.iteration_budget(default_budget) - used_iterations;
+  return rest;
+}
+
 // One solve of one connected part: the state of Algorithm 1.
 class PartSolve {
  public:
+  // hold_prestress_cap: under gravity, the cable sum is held at the prestress
+  // cap (held_at_prestress_cap) instead of left free.
   PartSolve(const Structure& part, const SolveOptions& options, const Eigen::VectorXd& initial_forces,
-            const AlternatingOptions& alt, bool gauss_newton)
+            const AlternatingOptions& alt, bool gauss_newton, bool hold_prestress_cap)
       : part_(part),
         options_(options),
         initial_forces_(initial_forces),
@@ -47,7 +74,7 @@ class PartSolve {
                                                                 : kFaithfulIterationBudget)),
         recorder_(options.time_limit_s),
         length_scale_(part.mean_element_length()),
-        scale_(make_force_scale(part, alt.margin > 0.0 ? alt.margin : options.margin_fraction)),
+        scale_(part_force_scale(part, options, alt.margin, hold_prestress_cap)),
         eq_(part),
         qp_options_(make_qp_options(alt, gauss_newton)),
         qp_(eq_, scale_, qp_options_),
@@ -484,9 +511,28 @@ constexpr std::array<RestartScaling, 1 + kMaxRestarts> kRestartSchedule = {{
 
 SolveResult solve_faithful_part(const Structure& part, const SolveOptions& options,
                                 const Eigen::VectorXd& initial_forces, const AlternatingOptions& alternating) {
-  PartSolve solve(part, options, initial_forces, alternating, false);
+  PartSolve solve(part, options, initial_forces, alternating, false, false);
   SolveResult r = solve.run();
-  r.details = {std::make_shared<const AlternatingDetails>(solve.details())};
+  AlternatingDetails details = solve.details();
+  if (exceeds_cap(part, options, alternating.margin, r)) {
+    const SolveOptions rest = remaining_budget(options, r.stats.seconds, r.stats.iterations, kFaithfulIterationBudget);
+    if (rest.time_limit_s > 0.0 && rest.max_iterations > 0) {
+      PartSolve held(part, rest, initial_forces, alternating, false, true);
+      SolveResult h = held.run();
+      const double offset = r.stats.seconds;
+      for (TracePoint& p : h.trace) p.seconds += offset;
+      h.stats.iterations += r.stats.iterations;
+      h.stats.seconds += offset;
+      details.add_run(held.details(), false);
+      details.sdc_from_iteration = held.details().sdc_from_iteration;
+      details.held_at_prestress_cap = true;
+      r = std::move(h);
+    } else {
+      r.status = Status::TimeLimit;
+      r.message = "converged above the prestress cap, with no budget left to hold it there";
+    }
+  }
+  r.details = {std::make_shared<const AlternatingDetails>(details)};
   return r;
 }
 
@@ -495,7 +541,9 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
   // Restarts from the input geometry with other step weights (kRestartSchedule)
   // when a run stalls. The trace is the successful (or last) run's, its times
   // counted from the start of the first run. The interior attempt goes first:
-  // when it converges it is the answer.
+  // when it converges (within the prestress cap) it is the answer. Under
+  // gravity, an answer above the cap is solved again with the cable sum held
+  // at the cap.
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   int iterations = 0;
@@ -505,33 +553,51 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
   if (alternating.interior.max_iterations > 0) {
     best = solve_interior_gauss_newton(part, options, initial_forces, alternating.interior);
     details.interior_iterations = best.stats.iterations;
-    if (best.status == Status::Converged) {
+    iterations += best.stats.iterations;
+    if (best.status == Status::Converged && !exceeds_cap(part, options, alternating.margin, best)) {
       best.details = {std::make_shared<const AlternatingDetails>(details)};
       return best;
     }
-    iterations += best.stats.iterations;
   }
-  const int attempts = 1 + alternating.restarts;
-  for (int a = 0; a < attempts; ++a) {
-    AlternatingOptions o = alternating;
-    o.sigma_weight *= kRestartSchedule[a].sigma_weight;
-    o.max_step *= kRestartSchedule[a].max_step;
-    o.lambda *= kRestartSchedule[a].lambda;
-    SolveOptions so = options;
-    so.time_limit_s = options.time_limit_s - elapsed();
-    so.max_iterations = options.iteration_budget(kDefaultIterationBudget) - iterations;
-    // The remainder must stay positive: 0 would mean "the default budget".
-    if ((a > 0 || iterations > 0) && (so.time_limit_s <= 0.0 || so.max_iterations <= 0)) break;
-    const double offset = elapsed();
-    PartSolve solve(part, so, initial_forces, o, true);
-    SolveResult r = solve.run();
-    iterations += r.stats.iterations;
-    details.add_run(solve.details(), a > 0);
-    for (TracePoint& p : r.trace) p.seconds += offset;
-    const bool better = a == 0 || r.status == Status::Converged ||
-                        (best.status != Status::Converged && r.stats.relative_residual < best.stats.relative_residual);
-    if (better) best = std::move(r);
-    if (best.status == Status::Converged || !solve.restartable()) break;
+  // One series of runs (the first as asked, then restarts after stalls);
+  // empty when no budget was left for a run.
+  auto run_series = [&](bool hold_cap) -> std::optional<SolveResult> {
+    std::optional<SolveResult> series_best;
+    const int attempts = 1 + alternating.restarts;
+    for (int a = 0; a < attempts; ++a) {
+      AlternatingOptions o = alternating;
+      o.sigma_weight *= kRestartSchedule[a].sigma_weight;
+      o.max_step *= kRestartSchedule[a].max_step;
+      o.lambda *= kRestartSchedule[a].lambda;
+      const SolveOptions so = remaining_budget(options, elapsed(), iterations, kDefaultIterationBudget);
+      // The remainder must stay positive: 0 would mean "the default budget".
+      if ((a > 0 || iterations > 0) && (so.time_limit_s <= 0.0 || so.max_iterations <= 0)) break;
+      const double offset = elapsed();
+      PartSolve solve(part, so, initial_forces, o, true, hold_cap);
+      SolveResult r = solve.run();
+      iterations += r.stats.iterations;
+      details.add_run(solve.details(), a > 0);
+      for (TracePoint& p : r.trace) p.seconds += offset;
+      const bool better = a == 0 || r.status == Status::Converged ||
+                          (series_best->status != Status::Converged &&
+                           r.stats.relative_residual < series_best->stats.relative_residual);
+      if (better) series_best = std::move(r);
+      if (series_best->status == Status::Converged || !solve.restartable()) break;
+    }
+    return series_best;
+  };
+  const bool interior_above_cap = best.status == Status::Converged;  // converged, yet above the cap
+  if (!interior_above_cap) {
+    if (std::optional<SolveResult> free_run = run_series(false)) best = std::move(*free_run);
+  }
+  if (interior_above_cap || exceeds_cap(part, options, alternating.margin, best)) {
+    details.held_at_prestress_cap = true;
+    if (std::optional<SolveResult> held = run_series(true)) {
+      best = std::move(*held);
+    } else {
+      best.status = Status::TimeLimit;
+      best.message = "converged above the prestress cap, with no budget left to hold it there";
+    }
   }
   best.stats.iterations = iterations;
   best.stats.seconds = elapsed();

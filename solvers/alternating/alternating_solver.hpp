@@ -132,6 +132,9 @@ struct AlternatingDetails : SolverDetails {
   // the steps of the interior attempt (0 when skipped).
   int restarts = 0;
   int interior_iterations = 0;
+  // Under gravity: the free run converged above the prestress cap, and the
+  // answer comes from a run with the cable sum held at the cap.
+  bool held_at_prestress_cap = false;
 
   // Adds the counters of one Gauss-Newton run (a restart unless it is the first).
   void add_run(const AlternatingDetails& run, bool restart);
