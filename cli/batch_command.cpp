@@ -1,5 +1,5 @@
 // tensegrity batch SCENE|DIR... --out-dir DIR [--solver NAME[,NAME...]] [--jobs N] [--tol T]
-//     [--time-limit S] [--kill-after S] [--max-iterations N] [--no-skip] [--measure-speedup]
+//     [--time-limit S] [--prestress-factor K] [--kill-after S] [--max-iterations N] [--no-skip] [--measure-speedup]
 //     [--trace] [--json FILE|-] [--quiet]
 //
 // Solves independent (scene, backend) jobs in forked worker processes, the

@@ -1,5 +1,5 @@
 // tensegrity compare SCENE [--solvers a,b,...] [--repeat N] [--time-limit S] [--tol T] [--max-iterations N]
-//                   --out DIR [--json]
+//                   [--prestress-factor K] --out DIR [--json]
 #include <algorithm>
 #include <filesystem>
 #include <iostream>

@@ -1,5 +1,5 @@
 // tensegrity stress-test [--scenes ...] [--solvers ...] [--families ...] [--trials N] [--seed S]
-//                        [--jobs J] [--time-limit S] [--tol T] [--data DIR] [--scene FILE]...
+//                        [--jobs J] [--time-limit S] [--tol T] [--prestress-factor K] [--data DIR] [--scene FILE]...
 //                        [--no-times] [--measure-speedup] [--quiet] --out|--json REPORT.json
 // Seeded families of perturbed benchmark scenes and characters, every chosen
 // backend on each, results re-verified and summarised (cli/stress_test.hpp):
