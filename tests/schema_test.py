@@ -140,6 +140,8 @@ def program_outputs(source, binary, work):
         ["stress-test", "--scenes", "prism-3", "--solvers", "alternating-gn,ipopt", "--families", "noise",
          "--trials", "1", "--quiet", "--data", data, "--measure-speedup", "--jobs", "2",
          "--json", work / "stress-report-timed.json"],
+        ["import", source / "tests" / "data" / "ntrt" / "3Prism.yaml", "--fix-lowest", "3",
+         "--out", work / "3prism.scene.json"],
         ["compare", prism, "--solvers", "alternating-gn,ipopt", "--out", work / "compare"],
         ["suggest-link", data / "characters" / "duck.character.json", "--a", "body", "--b", "neck",
          "--axis", "0", "1", "0", "--range", "20", "--faces", "2", "--cables", "1", "--json", work / "links.json"],
