@@ -1,5 +1,5 @@
 // tensegrity batch SCENE|DIR... --out-dir DIR [--solver NAME[,NAME...]] [--jobs N] [--tol T]
-//     [--time-limit S] [--kill-after S] [--max-iterations N] [--no-skip] [--measure-speedup]
+//     [--time-limit S] [--prestress-factor K] [--kill-after S] [--max-iterations N] [--no-skip] [--measure-speedup]
 //     [--trace] [--json FILE|-] [--quiet]
 //
 // Solves independent (scene, backend) jobs in forked worker processes, the
@@ -27,6 +27,7 @@
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
 #include "cli/batch_jobs.hpp"
+#include "cli/prestress_factor_option.hpp"
 #include "cli/process_pool.hpp"
 #include "cli/progress.hpp"
 #include "model/errors.hpp"
@@ -47,6 +48,7 @@ struct BatchArgs {
   int max_iterations = 0;
   double time_limit = 120.0;
   double kill_after = 0.0;  // 0: 2 * time_limit + 5
+  double prestress_factor = 0.0;  // set by add_prestress_factor_option
   bool no_skip = false;
   bool measure_speedup = false;
   bool trace = false;
@@ -144,6 +146,7 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
   cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget per scene"));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds per scene");
+  add_prestress_factor_option(*cmd, &args->prestress_factor);
   cmd->add_option("--kill-after", args->kill_after,
                   "A solve still running after this many seconds is killed and reported as time_limit "
                   "(default: twice --time-limit plus 5)");
@@ -164,6 +167,7 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       settings.options.tolerance = args->tol;
       settings.options.max_iterations = args->max_iterations;
       settings.options.time_limit_s = args->time_limit;
+      settings.options.prestress_factor = checked_prestress_factor(args->prestress_factor);
       settings.controls.skip_if_in_equilibrium = !args->no_skip;
       settings.kill_after_s = args->kill_after > 0.0 ? args->kill_after : 2.0 * args->time_limit + 5.0;
       if (!(args->kill_after >= 0.0)) throw InputError("command line", "--kill-after", "must be a number >= 0");

@@ -153,6 +153,7 @@ json batch_report_to_json(const BatchReport& report) {
   options["tolerance"] = settings.options.tolerance;
   options["max_iterations"] = settings.options.max_iterations;
   options["time_limit_s"] = settings.options.time_limit_s;
+  options["prestress_factor"] = settings.options.prestress_factor;
   options["kill_after_s"] = settings.kill_after_s;
   options["skip_if_in_equilibrium"] = settings.controls.skip_if_in_equilibrium;
   j["options"] = options;

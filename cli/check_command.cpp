@@ -53,7 +53,9 @@ void register_check_command(CLI::App& app, CommandRunner& run) {
       const Verification v = verify(scene, sol.positions, sol.forces, args->tol);
       if (args->json) {
         if (args->stability) throw InputError("command line", "--json", "not with --stability");
-        const nlohmann::json j = {{"verified", v.ok},
+        const nlohmann::json j = {{"format", "tensegrity-check"},
+                                  {"version", 1},
+                                  {"verified", v.ok},
                                   {"residual", v.residual},
                                   {"relative_residual", v.relative_residual},
                                   {"load_scale", v.load_scale},

@@ -1,5 +1,5 @@
 // tensegrity compare SCENE [--solvers a,b,...] [--repeat N] [--time-limit S] [--tol T] [--max-iterations N]
-//                   --out DIR [--json]
+//                   [--prestress-factor K] --out DIR [--json]
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
@@ -8,6 +8,7 @@
 #include "cli/commands.hpp"
 #include "cli/compare_report.hpp"
 #include "cli/output.hpp"
+#include "cli/prestress_factor_option.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
@@ -23,6 +24,7 @@ struct CompareArgs {
   double time_limit = 120.0;
   double tol = 1e-8;
   int max_iterations = 0;
+  double prestress_factor = 0.0;  // set by add_prestress_factor_option
   bool json = false;
 };
 
@@ -65,6 +67,7 @@ void register_compare_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget per solve in seconds");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
   cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget"));
+  add_prestress_factor_option(*cmd, &args->prestress_factor);
   cmd->add_option("--out", args->out_dir, "Folder for compare.csv, compare.json, compare-trace.csv, compare.png/.svg")
       ->required();
   cmd->add_flag("--json", args->json, "Print compare.json on standard output instead of the table");
@@ -74,6 +77,7 @@ void register_compare_command(CLI::App& app, CommandRunner& run) {
       options.tolerance = args->tol;
       options.max_iterations = args->max_iterations;
       options.time_limit_s = args->time_limit;
+      options.prestress_factor = checked_prestress_factor(args->prestress_factor);
       std::vector<std::string> names = args->solvers.empty() ? solver_names() : args->solvers;
       for (const std::string& name : names) checked_solver(name, options);  // usage errors before any work
       const Structure scene = read_scene_file(args->scene);

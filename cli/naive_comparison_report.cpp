@@ -57,7 +57,10 @@ std::string naive_comparison_table(const NaiveComparison& c, SettleMethod method
 }
 
 nlohmann::json naive_comparison_json(const NaiveComparison& c, SettleMethod method) {
-  nlohmann::json j = {{"method", method_name(method)}, {"designed", settling_json(c.designed)}};
+  nlohmann::json j = {{"format", "tensegrity-naive-comparison"},
+                      {"version", 1},
+                      {"method", method_name(method)},
+                      {"designed", settling_json(c.designed)}};
   nlohmann::json naive = nlohmann::json::array();
   for (const NaivePoint& p : c.naive) {
     nlohmann::json e = settling_json(p.settling);

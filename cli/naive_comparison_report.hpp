@@ -12,7 +12,8 @@ namespace tensegrity::cli {
 
 // Lines "design: ..." for standard error, ending with the verdict.
 std::string naive_comparison_table(const NaiveComparison& c, SettleMethod method);
-// {"method", "designed": {...}, "naive": [{fraction, in_material_range, ...}], "best_fraction"}.
+// {"format": "tensegrity-naive-comparison", "version": 1, "method", "designed": {...},
+//  "naive": [{fraction, in_material_range, ...}], "best_fraction"}.
 nlohmann::json naive_comparison_json(const NaiveComparison& c, SettleMethod method);
 
 }  // namespace tensegrity::cli

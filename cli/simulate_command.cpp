@@ -210,6 +210,8 @@ int run_simulate(const SimulateArgs& a) {
   auto emit = [&](int step, const StepReport* r) {
     const Eigen::VectorXd f = sim.element_forces();
     nlohmann::json j;
+    j["format"] = "tensegrity-simulation-frame";
+    j["version"] = 1;
     j["step"] = step;
     j["time"] = sim.time();
     nlohmann::json pos = nlohmann::json::array();

@@ -12,8 +12,8 @@
 
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
+#include "cli/prestress_factor_option.hpp"
 #include "cli/progress.hpp"
-#include "formulations/force_scale.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 
@@ -29,7 +29,7 @@ struct SolveArgs {
   double tol = 1e-8;
   int max_iterations = 0;
   double time_limit = 120.0;
-  double prestress_factor = kDefaultPrestressFactor;
+  double prestress_factor = 0.0;  // set by add_prestress_factor_option
   bool verbose = false;
   bool quiet = false;
   bool no_skip = false;
@@ -76,9 +76,7 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
   cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget"));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds");
-  cmd->add_option("--prestress-factor", args->prestress_factor,
-                  "kappa: under gravity Eq. 5 caps the mean cable force at kappa times the part's weight "
-                  "(finite, > 0; default 1; docs/THEORY-force-scale.md)");
+  add_prestress_factor_option(*cmd, &args->prestress_factor);
   cmd->add_option("--option", args->options, "Backend option key=value (repeatable)");
   cmd->add_option("--trace", args->trace, "Write the per-iteration record as CSV");
   cmd->add_option("--out-scene", args->out_scene,
@@ -94,9 +92,7 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
       options.tolerance = args->tol;
       options.max_iterations = args->max_iterations;
       options.time_limit_s = args->time_limit;
-      if (!(std::isfinite(args->prestress_factor) && args->prestress_factor > 0.0))
-        throw InputError("command line", "--prestress-factor", "must be a finite number > 0");
-      options.prestress_factor = args->prestress_factor;
+      options.prestress_factor = checked_prestress_factor(args->prestress_factor);
       options.verbose = args->verbose;
       DriverControls controls;
       controls.skip_if_in_equilibrium = !args->no_skip;

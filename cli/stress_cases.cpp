@@ -39,6 +39,7 @@ StressPlan plan_stress_test(const StressTestOptions& options) {
   SolveOptions solve_options;
   solve_options.tolerance = options.tolerance;
   solve_options.time_limit_s = options.time_limit_s;
+  solve_options.prestress_factor = options.prestress_factor;
   solve_options.backend_options = options.backend_options;
   std::string why;
   if (!solve_options.IsValid(&why)) throw InputError("command line", "options", why);

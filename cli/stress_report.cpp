@@ -99,6 +99,7 @@ json stress_report_to_json(const StressReport& report) {
   opts["seed"] = o.seed;
   opts["time_limit_s"] = o.time_limit_s;
   opts["tolerance"] = o.tolerance;
+  opts["prestress_factor"] = o.prestress_factor;
   if (!o.backend_options.empty()) opts["backend_options"] = o.backend_options;
   if (times) opts["jobs"] = o.jobs;
   j["options"] = opts;

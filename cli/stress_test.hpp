@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "formulations/force_scale.hpp"
 #include "model/structure.hpp"
 #include "scenes/families.hpp"
 #include "solvers/solver.hpp"
@@ -43,6 +44,7 @@ struct StressTestOptions {
   double time_limit_s = 20.0;         // per solve
   bool measure_speedup = false;       // first run everything on one worker, for the serial wall time
   double tolerance = 1e-8;
+  double prestress_factor = kDefaultPrestressFactor;  // kappa of Eq. 5 under gravity
   // Backend options (`--option key=value`) given to every solver of the run;
   // each solver must accept them all (InputError otherwise).
   std::map<std::string, std::string> backend_options;

@@ -1,5 +1,5 @@
 // tensegrity stress-test [--scenes ...] [--solvers ...] [--families ...] [--trials N] [--seed S]
-//                        [--jobs J] [--time-limit S] [--tol T] [--data DIR] [--scene FILE]...
+//                        [--jobs J] [--time-limit S] [--tol T] [--prestress-factor K] [--data DIR] [--scene FILE]...
 //                        [--no-times] [--measure-speedup] [--quiet] --out|--json REPORT.json
 // Seeded families of perturbed benchmark scenes and characters, every chosen
 // backend on each, results re-verified and summarised (cli/stress_test.hpp):
@@ -17,6 +17,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/output.hpp"
+#include "cli/prestress_factor_option.hpp"
 #include "cli/process_pool.hpp"
 #include "cli/progress.hpp"
 #include "cli/stress_test.hpp"
@@ -35,6 +36,7 @@ struct StressArgs {
   int jobs = 0;  // 0: every available core
   double time_limit = 20.0;
   double tol = 1e-8;
+  double prestress_factor = 0.0;  // set by add_prestress_factor_option
   std::string data;
   std::string out;
   std::string failures_dir;
@@ -107,6 +109,7 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
       ->check(CLI::Range(1, 256));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget per solve (s)");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged`");
+  add_prestress_factor_option(*cmd, &args->prestress_factor);
   cmd->add_option("--option", args->options,
                   "Backend option key=value for every solver of the run (repeatable; each must accept it)");
   cmd->add_option("--data", args->data, "Data folder holding characters/ (default ./data or beside the program)");
@@ -134,6 +137,7 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
       o.measure_speedup = args->measure_speedup;
       o.time_limit_s = args->time_limit;
       o.tolerance = args->tol;
+      o.prestress_factor = checked_prestress_factor(args->prestress_factor);
       o.backend_options = parse_key_values(args->options);
       o.data_dir = find_data_dir(args->data);
       o.with_times = !args->no_times;

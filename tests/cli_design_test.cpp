@@ -142,6 +142,8 @@ TEST(CliDesign, CompareNaiveRecordsThatOnlyTheDesignHoldsItsShape) {
   EXPECT_NE(r.err.find("best naive fraction"), std::string::npos) << r.err;
   const nlohmann::json j = nlohmann::json::parse(testing::read_text(design));
   const nlohmann::json& c = j.at("design").at("naive_comparison");
+  EXPECT_EQ(c.at("format"), "tensegrity-naive-comparison");
+  EXPECT_EQ(c.at("version"), 1);
   EXPECT_EQ(c.at("method"), "relax");
   EXPECT_EQ(c.at("designed").at("status"), "converged");
   EXPECT_LT(c.at("designed").at("relative_max_displacement").get<double>(), 1e-9);

@@ -200,6 +200,8 @@ TEST(CliCheck, JsonSummaryMatchesTheSolution) {
   ASSERT_EQ(r.exit_status, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   const Solution sol = read_solution_file(solution, read_scene_file(scene));
+  EXPECT_EQ(j.at("format"), "tensegrity-check");
+  EXPECT_EQ(j.at("version"), 1);
   EXPECT_TRUE(j.at("verified").get<bool>());
   EXPECT_LE(j.at("relative_residual").get<double>(), 1e-8);
   EXPECT_NEAR(j.at("geometry_change").get<double>(), sol.stats.geometry_change, 1e-12);

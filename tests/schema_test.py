@@ -3,7 +3,9 @@
 
 Every shipped JSON file (data/**, the reports in docs/) and every JSON file the
 `tensegrity` program writes in a few typical runs must match the schema of its
-"format". A broken copy of a scene must not match (the validator is live).
+"format" (a JSON Lines file: every line; `check --json` prints its document).
+A broken copy of a scene, and of every report the program wrote, must not
+match (the validator is live).
 
     /usr/bin/python3 tests/schema_test.py --source . --binary build/tensegrity
     /usr/bin/python3 tests/schema_test.py --source . --validate FILE...   (no program runs)
@@ -31,6 +33,11 @@ SCHEMA_OF_FORMAT = {
     "tensegrity-batch-report": "batch-report",
     "tensegrity-poses": "poses",
     "tensegrity-actuation": "actuation",
+    "tensegrity-compare": "compare",
+    "tensegrity-link-suggestions": "link-suggestions",
+    "tensegrity-simulation-frame": "simulation-frame",
+    "tensegrity-naive-comparison": "naive-comparison",
+    "tensegrity-check": "check",
 }
 
 # The duck's two poses of docs/CHARACTERS.md (head down 1 cm, head up 1 cm);
@@ -85,16 +92,27 @@ class Schemas:
 def shipped_files(source):
     files = sorted(p for p in (source / "data").rglob("*.json"))
     files += sorted((source / "docs").glob("*-report.json"))
+    files += sorted((source / "docs" / "outputs").rglob("*.json"))
+    # docs/figures also holds benchmark-library outputs, which are not the project's formats.
+    files += sorted(p for p in (source / "docs" / "figures").glob("*.json")
+                    if str(json.loads(p.read_text()).get("format", "")).startswith("tensegrity-"))
     return files
 
 
-def run_program(binary, args, work):
-    """Runs the program; returns the JSON files it wrote into `work`."""
-    before = set(work.rglob("*.json"))
+def json_files(work):
+    return set(work.rglob("*.json")) | set(work.rglob("*.jsonl"))
+
+
+def run_program(binary, args, work, stdout_to=None):
+    """Runs the program; returns the JSON (and JSON Lines) files it wrote into
+    `work`, and `stdout_to` holding what it printed when that is given."""
+    before = json_files(work)
     done = subprocess.run([str(binary)] + [str(a) for a in args], capture_output=True, text=True, timeout=600)
     if done.returncode not in (0, 1):
         raise SystemExit(f"tensegrity {' '.join(map(str, args))}: exit {done.returncode}\n{done.stderr}")
-    return sorted(set(work.rglob("*.json")) - before)
+    if stdout_to:
+        stdout_to.write_text(done.stdout)
+    return sorted(json_files(work) - before)
 
 
 def program_outputs(source, binary, work):
@@ -122,6 +140,15 @@ def program_outputs(source, binary, work):
         ["stress-test", "--scenes", "prism-3", "--solvers", "alternating-gn,ipopt", "--families", "noise",
          "--trials", "1", "--quiet", "--data", data, "--measure-speedup", "--jobs", "2",
          "--json", work / "stress-report-timed.json"],
+        ["import", source / "tests" / "data" / "ntrt" / "3Prism.yaml", "--fix-lowest", "3",
+         "--out", work / "3prism.scene.json"],
+        ["compare", prism, "--solvers", "alternating-gn,ipopt", "--out", work / "compare"],
+        ["suggest-link", data / "characters" / "duck.character.json", "--a", "body", "--b", "neck",
+         "--axis", "0", "1", "0", "--range", "20", "--faces", "2", "--cables", "1", "--json", work / "links.json"],
+        ["design", prism_gravity, "--material", "elastic-cord-1mm", "--material-dir", data / "materials",
+         "--naive-fractions", "0.8:0.9:2", "--quiet", "--out", work / "prism-3.naive.design.json"],
+        ["simulate", work / "prism-3.design.json", "--steps", "3", "--no-vtk", "--quiet",
+         "--out", work / "prism-3.frames.jsonl"],
     ]
     written = []
     for args in runs:
@@ -129,6 +156,9 @@ def program_outputs(source, binary, work):
         if not files:
             raise SystemExit(f"tensegrity {' '.join(map(str, args))}: wrote no JSON file")
         written += files
+    check = work / "prism-3.check.json"
+    run_program(binary, ["check", prism, work / "prism-3.solution.json", "--json"], work, stdout_to=check)
+    written.append(check)
     return written + actuation_outputs(binary, work)
 
 
@@ -183,18 +213,31 @@ def check_bad_poses(schemas, binary, work):
     return failures
 
 
+def documents_in(path):
+    """The JSON documents of a file: one, or one per line of a JSON Lines file."""
+    text = pathlib.Path(path).read_text()
+    if str(path).endswith(".jsonl"):
+        return [json.loads(line) for line in text.splitlines() if line.strip()]
+    return [json.loads(text)]
+
+
 def check_files(schemas, files):
     failures = 0
     for path in files:
         try:
-            document = json.loads(pathlib.Path(path).read_text())
+            documents = documents_in(path)
         except (OSError, ValueError) as e:
             print(f"{path}: cannot read: {e}")
             failures += 1
             continue
-        for message in schemas.errors(document):
-            print(f"{path}: {message}")
+        if not documents:
+            print(f"{path}: no document")
             failures += 1
+        for number, document in enumerate(documents):
+            where = f"{path}:{number + 1}" if len(documents) > 1 else str(path)
+            for message in schemas.errors(document):
+                print(f"{where}: {message}")
+                failures += 1
     return failures
 
 
@@ -234,11 +277,96 @@ def check_live_actuation(schemas, path, document):
     return failures
 
 
+def measured_candidate(document):
+    return next(c for c in document["candidates"] if c["measured"])
+
+
+# Per format: ways to break a document the program wrote that its schema must
+# reject (a wrong enum value, a missing required field, a number out of range,
+# a wrong type).
+BROKEN_COPIES = {
+    "tensegrity-compare": (
+        lambda d: d["rows"][0].__setitem__("status", "finished"),
+        lambda d: d["rows"][0].pop("verified"),
+        lambda d: d["rows"][0].__setitem__("iterations", -1),
+        lambda d: d["rows"][0].__setitem__("seconds", "fast"),
+    ),
+    "tensegrity-link-suggestions": (
+        lambda d: d["candidates"][0].__setitem__("type", "hinge"),
+        lambda d: d["candidates"][0].pop("link"),
+        lambda d: measured_candidate(d).pop("principal_stiffness"),
+        lambda d: measured_candidate(d).__setitem__("principal_axes", [[1.0, 0.0, 0.0]]),
+        lambda d: d.pop("units"),
+    ),
+    "tensegrity-simulation-frame": (
+        lambda d: d["positions"][0].pop(),
+        lambda d: d.pop("forces"),
+        lambda d: d.__setitem__("step", -1),
+        lambda d: d.pop("substeps"),
+        lambda d: d["drags"].append({"node": 0}),
+    ),
+    "tensegrity-naive-comparison": (
+        lambda d: d["naive"][0].pop("fraction"),
+        lambda d: d.__setitem__("method", "settle"),
+        lambda d: d["designed"].__setitem__("slack_cables", -1),
+        lambda d: d["designed"].__setitem__("status", "settled"),
+    ),
+    "tensegrity-check": (
+        lambda d: d.__setitem__("verified", "yes"),
+        lambda d: d.pop("problems"),
+        lambda d: d.__setitem__("wrong_signs", -1),
+        lambda d: d.__setitem__("status_claimed", "fine"),
+    ),
+}
+
+
+def reports_in(written):
+    """(path, document) of every document the program wrote, the naive
+    comparison a design file embeds included; of a frames file its last frame."""
+    for path in written:
+        documents = documents_in(path)
+        document = documents[-1]
+        yield path, document
+        if document.get("format") == "tensegrity-design" and "naive_comparison" in document.get("design", {}):
+            yield path, document["design"]["naive_comparison"]
+
+
+def check_live_new_formats(schemas, written):
+    failures = 0
+    seen = set()
+    for path, document in reports_in(written):
+        if document.get("format") == "tensegrity-design":
+            if "naive_comparison" not in document.get("design", {}):
+                continue
+            broken = copy.deepcopy(document)
+            broken["design"]["naive_comparison"]["naive"][0].pop("fraction")
+            if not schemas.errors(broken):
+                print(f"{path}: the design schema accepted a broken naive comparison")
+                failures += 1
+            continue
+        mutations = BROKEN_COPIES.get(document.get("format"))
+        if mutations is None:
+            continue
+        seen.add(document["format"])
+        if schemas.errors(document):
+            continue  # reported by check_files
+        for number, mutate in enumerate(mutations):
+            broken = copy.deepcopy(document)
+            mutate(broken)
+            if not schemas.errors(broken):
+                print(f"{path}: the {document['format']} schema accepted broken copy {number}")
+                failures += 1
+    for missing in sorted(set(BROKEN_COPIES) - seen):
+        print(f"no program output of format {missing} to break")
+        failures += 1
+    return failures
+
+
 def check_live_reports(schemas, written):
     """The report schemas, too, must reject a broken copy of a report the program wrote."""
-    failures = 0
+    failures = check_live_new_formats(schemas, written)
     for path in written:
-        document = json.loads(pathlib.Path(path).read_text())
+        document = documents_in(path)[-1]
         if document.get("format") == "tensegrity-actuation":
             failures += check_live_actuation(schemas, path, document)
             continue

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cli/output.hpp"
+#include "cli/prestress_factor_option.hpp"
 #include "model/errors.hpp"
 #include "model/solution.hpp"
 #include "model/verify.hpp"
@@ -85,12 +86,13 @@ py::dict trace_dict(const std::vector<TracePoint>& trace) {
 }
 
 PyResult run_solve(const Structure& scene, const std::string& solver_name, double tol, double time_limit,
-                   int max_iterations, bool skip_if_in_equilibrium, bool verbose,
+                   int max_iterations, double prestress_factor, bool skip_if_in_equilibrium, bool verbose,
                    const std::map<std::string, std::string>& backend_options) {
   SolveOptions options;
   options.tolerance = tol;
   options.time_limit_s = time_limit;
   options.max_iterations = max_iterations;
+  options.prestress_factor = cli::checked_prestress_factor(prestress_factor);
   DriverControls controls;
   controls.skip_if_in_equilibrium = skip_if_in_equilibrium;
   options.verbose = verbose;
@@ -178,26 +180,31 @@ void bind_solve(py::module_& m) {
 
   m.def("solvers", &solver_names, "Names of the backends, as `tensegrity solvers` lists them.");
   m.def("default_solver", &default_solver_name, "The backend used when none is named.");
+  m.attr("DEFAULT_PRESTRESS_FACTOR") = kDefaultPrestressFactor;
 
   m.def("_solve",
         [](const Structure& scene, const std::string& solver, double tol, double time_limit, int max_iterations,
-           bool skip_if_in_equilibrium, bool verbose, const std::map<std::string, std::string>& options) {
-          return run_solve(scene, solver, tol, time_limit, max_iterations, skip_if_in_equilibrium, verbose, options);
+           double prestress_factor, bool skip_if_in_equilibrium, bool verbose,
+           const std::map<std::string, std::string>& options) {
+          return run_solve(scene, solver, tol, time_limit, max_iterations, prestress_factor, skip_if_in_equilibrium,
+                           verbose, options);
         },
         py::arg("scene"), py::arg("solver"), py::arg("tol"), py::arg("time_limit"), py::arg("max_iterations"),
-        py::arg("skip_if_in_equilibrium"), py::arg("verbose"), py::arg("options"));
+        py::arg("prestress_factor"), py::arg("skip_if_in_equilibrium"), py::arg("verbose"), py::arg("options"));
 
   m.def("_check_solver",
-        [](const std::string& solver, double tol, double time_limit, int max_iterations,
+        [](const std::string& solver, double tol, double time_limit, int max_iterations, double prestress_factor,
            const std::map<std::string, std::string>& options) {
           SolveOptions o;
           o.tolerance = tol;
           o.time_limit_s = time_limit;
           o.max_iterations = max_iterations;
+          o.prestress_factor = cli::checked_prestress_factor(prestress_factor);
           o.backend_options = options;
           return std::string(cli::checked_solver(solver, o)->name());
         },
-        py::arg("solver"), py::arg("tol"), py::arg("time_limit"), py::arg("max_iterations"), py::arg("options"));
+        py::arg("solver"), py::arg("tol"), py::arg("time_limit"), py::arg("max_iterations"),
+        py::arg("prestress_factor"), py::arg("options"));
 
   m.def("_forces", &run_forces, py::arg("scene"), py::arg("tol"));
 

@@ -34,11 +34,11 @@ from ._core import (
     stress_families,
     stress_levels,
 )
-from ._api import check, design, forces, read_solution, render, simulate, solve
+from ._api import DEFAULT_PRESTRESS_FACTOR, check, design, forces, read_solution, render, simulate, solve
 from .sweep import stress_family, sweep, SWEEP_COLUMNS
 
 __all__ = [
-    "DesignResult", "Result", "Scene", "Verification", "SWEEP_COLUMNS",
+    "DEFAULT_PRESTRESS_FACTOR", "DesignResult", "Result", "Scene", "Verification", "SWEEP_COLUMNS",
     "build_character", "chain", "check", "default_solver", "design", "forces", "load_scene",
     "octahedron", "prism", "prism_equilibrium_twist", "read_solution", "render",
     "scene_from_json", "simulate", "solve", "solvers", "stress_base_scenes", "stress_case",

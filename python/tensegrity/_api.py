@@ -5,6 +5,7 @@ import os
 from . import _core
 
 DEFAULT_TIME_LIMIT = 120.0  # s, the command line's --time-limit default
+DEFAULT_PRESTRESS_FACTOR = _core.DEFAULT_PRESTRESS_FACTOR  # kappa, the command line's --prestress-factor default
 
 
 def _as_scene(scene):
@@ -24,8 +25,13 @@ def _option_text(value):
     return str(value)
 
 
+def _prestress_factor(value):
+    """kappa as a float, the default for None (checked by the solve itself)."""
+    return DEFAULT_PRESTRESS_FACTOR if value is None else float(value)
+
+
 def solve(scene, solver=None, tol=1e-8, time_limit=None, options=None, *,
-          max_iterations=0, skip_if_in_equilibrium=True, verbose=False):
+          max_iterations=0, skip_if_in_equilibrium=True, verbose=False, prestress_factor=None):
     """Form-finds a scene with one backend (``tensegrity solve``).
 
     Parameters
@@ -43,6 +49,10 @@ def solve(scene, solver=None, tol=1e-8, time_limit=None, options=None, *,
         Backend iteration budget; 0 is the backend's own.
     skip_if_in_equilibrium : bool
         False is the command line's ``--no-skip``.
+    prestress_factor : float, optional
+        kappa, the command line's ``--prestress-factor``: under gravity Eq. 5
+        caps the mean cable force at kappa times the part's weight (finite,
+        > 0; default :data:`DEFAULT_PRESTRESS_FACTOR`, 1).
 
     Returns
     -------
@@ -65,7 +75,8 @@ def solve(scene, solver=None, tol=1e-8, time_limit=None, options=None, *,
         backend_options[key] = _option_text(value)
     limit = DEFAULT_TIME_LIMIT if time_limit is None else float(time_limit)
     return _core._solve(scene, solver or "", float(tol), limit, int(max_iterations),
-                        bool(skip_if_in_equilibrium), bool(verbose), backend_options)
+                        _prestress_factor(prestress_factor), bool(skip_if_in_equilibrium), bool(verbose),
+                        backend_options)
 
 
 def forces(scene, tol=1e-8):

@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 
 from . import _core
-from ._api import DEFAULT_TIME_LIMIT, _as_scene, _option_text
+from ._api import DEFAULT_TIME_LIMIT, _as_scene, _option_text, _prestress_factor
 
 #: Columns of the DataFrame returned by :func:`sweep`, in order.
 SWEEP_COLUMNS = [
@@ -89,7 +89,7 @@ def _perturbation_spec(p):
 
 def _run_one(task):
     """One grid point, solved where it lands (a Dask worker, a local process or here)."""
-    name, scene, label, spec, seed, solver, tol, time_limit, max_iterations, options = task
+    name, scene, label, spec, seed, solver, tol, time_limit, max_iterations, prestress_factor, options = task
     row = {"scene": name, "perturbation": label, "seed": seed, "solver": solver}
     try:
         if callable(spec):
@@ -100,7 +100,7 @@ def _run_one(task):
         row.update(status=REJECTED, seconds=0.0, iterations=0, residual=float("nan"),
                    relative_residual=float("nan"), geometry_change=float("nan"), verified=False)
         return row
-    result = _core._solve(scene, solver, tol, time_limit, max_iterations, True, False, options)
+    result = _core._solve(scene, solver, tol, time_limit, max_iterations, prestress_factor, True, False, options)
     stats = result.stats
     row.update(status=result.status, seconds=stats["seconds"], iterations=stats["iterations"],
                residual=stats["residual"], relative_residual=stats["relative_residual"],
@@ -145,7 +145,7 @@ def _local_rows(tasks, jobs):
 
 
 def sweep(scenes, solvers, perturbations=None, seeds=None, client=None, time_limit=20.0, *,
-          tol=1e-8, options=None, max_iterations=0, jobs=None):
+          tol=1e-8, options=None, max_iterations=0, jobs=None, prestress_factor=None):
     """Solves every (scene, perturbation, seed, solver) of a grid and returns a
     pandas DataFrame, one row per solve, in grid order (scene, perturbation,
     seed, solver), with the columns :data:`SWEEP_COLUMNS`.
@@ -170,7 +170,7 @@ def sweep(scenes, solvers, perturbations=None, seeds=None, client=None, time_lim
         would otherwise return them to the system after every solve).
     time_limit : float
         Seconds per solve.
-    tol, options, max_iterations
+    tol, options, max_iterations, prestress_factor
         As for :func:`solve`.
 
     A perturbed scene that breaks a rule of the model is not solved: its row
@@ -185,11 +185,12 @@ def sweep(scenes, solvers, perturbations=None, seeds=None, client=None, time_lim
         raise ValueError("tensegrity: sweep: solvers: give at least one solver")
     backend_options = {str(k): _option_text(v) for k, v in (options or {}).items()}
     limit = DEFAULT_TIME_LIMIT if time_limit is None else float(time_limit)
+    kappa = _prestress_factor(prestress_factor)
     for s in solver_list:  # bad names and options fail here, before any work is sent
-        _core._check_solver(s, float(tol), limit, int(max_iterations), backend_options)
+        _core._check_solver(s, float(tol), limit, int(max_iterations), kappa, backend_options)
     specs = [_perturbation_spec(p) for p in (perturbations if perturbations is not None else [None])]
     seed_list = [int(s) for s in (seeds if seeds is not None else [1])]
-    tasks = [(name, scene, label, spec, seed, s, float(tol), limit, int(max_iterations), backend_options)
+    tasks = [(name, scene, label, spec, seed, s, float(tol), limit, int(max_iterations), kappa, backend_options)
              for name, scene in named for label, spec in specs for seed in seed_list for s in solver_list]
     if client is not None:
         futures = client.map(_run_on_worker, tasks, pure=False)
