@@ -7,7 +7,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/compare_report.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"

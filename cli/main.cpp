@@ -2,7 +2,7 @@
 #include <iostream>
 
 #include "cli/commands.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "model/known_keys.hpp"
 

@@ -24,10 +24,10 @@
 #include <string>
 
 #include "cli/commands.hpp"
-#include "cli/design_pipeline.hpp"
-#include "cli/fabrication_sheet.hpp"
+#include "reports/design_pipeline.hpp"
+#include "reports/fabrication_sheet.hpp"
 #include "cli/link_suggestion_report.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "formulations/elastic_energy.hpp"
 #include "model/character.hpp"
 #include "model/errors.hpp"

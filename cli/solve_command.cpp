@@ -11,7 +11,7 @@
 #include <string>
 
 #include "cli/commands.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "cli/progress.hpp"
 #include "formulations/force_scale.hpp"
 #include "model/errors.hpp"

@@ -16,7 +16,7 @@
 #include <memory>
 
 #include "cli/commands.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "cli/process_pool.hpp"
 #include "cli/progress.hpp"
 #include "cli/stress_test.hpp"

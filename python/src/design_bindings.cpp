@@ -17,10 +17,10 @@
 #include <utility>
 #include <vector>
 
-#include "cli/design_pipeline.hpp"
-#include "cli/fabrication_sheet.hpp"
-#include "cli/naive_comparison_report.hpp"
-#include "cli/output.hpp"
+#include "reports/design_pipeline.hpp"
+#include "reports/fabrication_sheet.hpp"
+#include "reports/naive_comparison_report.hpp"
+#include "reports/output.hpp"
 #include "design/naive_sweep.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"

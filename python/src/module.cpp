@@ -7,7 +7,7 @@
 #include <exception>
 #include <string>
 
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "python/src/bindings.hpp"
 

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "model/solution.hpp"
 #include "model/verify.hpp"

@@ -1,4 +1,4 @@
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 
 #include <cstdio>
 #include <sstream>
