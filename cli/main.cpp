@@ -50,6 +50,9 @@ int main(int argc, char** argv) {
     // The library names the option; the command line names the flag that gave it.
     std::cerr << cli::option_error_line(e) << "\n";
     return 2;
+  } catch (const UnknownNameError& e) {
+    std::cerr << cli::unknown_name_line(e) << "\n";
+    return 2;
   } catch (const InputError& e) {
     std::cerr << "tensegrity: " << e.what() << "\n";
     return 2;

@@ -143,6 +143,9 @@ class WebApp {
     server.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
       try {
         std::rethrow_exception(ep);
+      } catch (const UnknownNameError& e) {
+        // A solver name of the request is named as the request's option.
+        reply_error(res, 400, InputError(kRequestSource, e.item(), e.reason()).what());
       } catch (const InputError& e) {
         // Options shared with the CLI (solver names, tolerances) come from the request here.
         reply_error(res, 400, e.file() == "command line" ? InputError(kRequestSource, e.item(), e.reason()).what()

@@ -14,6 +14,13 @@ std::string option_error_line(const OptionError& e) {
          e.reason() + " (solver " + e.backend() + ")";
 }
 
+std::string unknown_name_line(const UnknownNameError& e) {
+  const std::map<std::string, std::string> flag_of_kind = {{"solver", "--solver"}, {"family", "--families"}};
+  const auto flag = flag_of_kind.find(e.kind());
+  return "tensegrity: command line: " + (flag == flag_of_kind.end() ? "--" + e.kind() : flag->second) + " " +
+         e.name() + ": " + e.reason();
+}
+
 std::string summary_line(const Structure& scene, std::string_view solver, const SolveResult& r) {
   char buf[512];
   std::snprintf(buf, sizeof buf,
