@@ -25,7 +25,7 @@
 #include <string>
 
 #include "cli/commands.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "cli/batch_jobs.hpp"
 #include "cli/prestress_factor_option.hpp"
 #include "cli/process_pool.hpp"

@@ -7,8 +7,8 @@
 
 #include "cli/commands.hpp"
 #include "cli/compare_report.hpp"
-#include "cli/output.hpp"
 #include "cli/prestress_factor_option.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"

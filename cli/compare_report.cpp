@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "cli/canvas.hpp"
+#include "reports/canvas.hpp"
 #include "model/verify.hpp"
 
 namespace tensegrity::cli {

@@ -30,10 +30,10 @@
 #include <sstream>
 
 #include "cli/commands.hpp"
-#include "cli/design_pipeline.hpp"
-#include "cli/fabrication_sheet.hpp"
-#include "cli/naive_comparison_report.hpp"
-#include "cli/output.hpp"
+#include "reports/design_pipeline.hpp"
+#include "reports/fabrication_sheet.hpp"
+#include "reports/naive_comparison_report.hpp"
+#include "reports/output.hpp"
 #include "design/rest_lengths.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"

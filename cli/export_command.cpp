@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "cli/commands.hpp"
-#include "cli/exporters.hpp"
+#include "reports/exporters.hpp"
 #include "cli/mjcf.hpp"
 #include "cli/ntrt_yaml.hpp"
 #include "model/design.hpp"

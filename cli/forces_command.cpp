@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "cli/commands.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 

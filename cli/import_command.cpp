@@ -3,7 +3,7 @@
 #include <memory>
 #include <numeric>
 
-#include "cli/canvas.hpp"
+#include "reports/canvas.hpp"
 #include "cli/commands.hpp"
 #include "cli/ntrt_yaml.hpp"
 #include "model/errors.hpp"

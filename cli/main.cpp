@@ -2,7 +2,7 @@
 #include <iostream>
 
 #include "cli/commands.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "model/known_keys.hpp"
 
@@ -49,6 +49,9 @@ int main(int argc, char** argv) {
   } catch (const OptionError& e) {
     // The library names the option; the command line names the flag that gave it.
     std::cerr << cli::option_error_line(e) << "\n";
+    return 2;
+  } catch (const UnknownNameError& e) {
+    std::cerr << cli::unknown_name_line(e) << "\n";
     return 2;
   } catch (const InputError& e) {
     std::cerr << "tensegrity: " << e.what() << "\n";

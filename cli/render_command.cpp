@@ -7,7 +7,7 @@
 #include <optional>
 
 #include "cli/commands.hpp"
-#include "cli/renderer.hpp"
+#include "reports/renderer.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"

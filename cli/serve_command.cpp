@@ -24,10 +24,10 @@
 #include <string>
 
 #include "cli/commands.hpp"
-#include "cli/design_pipeline.hpp"
-#include "cli/fabrication_sheet.hpp"
+#include "reports/design_pipeline.hpp"
+#include "reports/fabrication_sheet.hpp"
 #include "cli/link_suggestion_report.hpp"
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "formulations/elastic_energy.hpp"
 #include "model/character.hpp"
 #include "model/errors.hpp"
@@ -143,6 +143,9 @@ class WebApp {
     server.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
       try {
         std::rethrow_exception(ep);
+      } catch (const UnknownNameError& e) {
+        // A solver name of the request is named as the request's option.
+        reply_error(res, 400, InputError(kRequestSource, e.item(), e.reason()).what());
       } catch (const InputError& e) {
         // Options shared with the CLI (solver names, tolerances) come from the request here.
         reply_error(res, 400, e.file() == "command line" ? InputError(kRequestSource, e.item(), e.reason()).what()

@@ -22,9 +22,9 @@
 #include <sstream>
 
 #include "cli/commands.hpp"
-#include "cli/exporters.hpp"
+#include "reports/exporters.hpp"
 #include "cli/progress.hpp"
-#include "cli/renderer.hpp"
+#include "reports/renderer.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"

@@ -11,8 +11,8 @@
 #include <string>
 
 #include "cli/commands.hpp"
-#include "cli/output.hpp"
 #include "cli/prestress_factor_option.hpp"
+#include "reports/output.hpp"
 #include "cli/progress.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"

@@ -16,8 +16,8 @@
 #include <memory>
 
 #include "cli/commands.hpp"
-#include "cli/output.hpp"
 #include "cli/prestress_factor_option.hpp"
+#include "reports/output.hpp"
 #include "cli/process_pool.hpp"
 #include "cli/progress.hpp"
 #include "cli/stress_test.hpp"

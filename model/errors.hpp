@@ -35,4 +35,19 @@ class OptionError : public InputError {
   std::string backend_, key_, value_;
 };
 
+// A name that a registry does not know: a solver backend ("solver"), a
+// stress-test family ("family"). The library names the kind and the name; the
+// command line adds the flag that gave it.
+class UnknownNameError : public InputError {
+ public:
+  UnknownNameError(std::string kind, std::string name, std::string reason)
+      : InputError("options", kind + " '" + name + "'", std::move(reason)),
+        kind_(std::move(kind)), name_(std::move(name)) {}
+  const std::string& kind() const { return kind_; }
+  const std::string& name() const { return name_; }
+
+ private:
+  std::string kind_, name_;
+};
+
 }  // namespace tensegrity

@@ -143,7 +143,7 @@ std::vector<FamilyLevel> family_levels(const std::string& family) {
   }
   std::string known;
   for (const auto& f : known_family_names()) known += (known.empty() ? "" : ", ") + f;
-  throw InputError("command line", "--families " + family, "unknown family (known: " + known + ")");
+  throw UnknownNameError("family", family, "unknown stress-test family (known: " + known + ")");
 }
 
 Structure make_family_case(const Structure& base, const std::string& family, int level_index, int trial,

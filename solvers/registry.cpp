@@ -41,8 +41,7 @@ std::unique_ptr<Solver> make_solver(std::string_view name) {
     if (name == b.name) return b.make();
   std::string known;
   for (const auto& b : backends()) known += std::string(known.empty() ? "" : ", ") + b.name;
-  throw InputError("command line", "--solver " + std::string(name),
-                   "unknown solver (known: " + known + ")");
+  throw UnknownNameError("solver", std::string(name), "unknown backend (known: " + known + ")");
 }
 
 std::vector<std::string> solver_names() {

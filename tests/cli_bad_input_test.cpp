@@ -83,6 +83,24 @@ TEST_F(CliBadInput, MissingFileAndDirectory) {
   }
 }
 
+// A name no registry knows: the library names the option, the program adds
+// the flag that gave it.
+TEST_F(CliBadInput, UnknownSolverAndFamilyNameTheirFlags) {
+  const std::string scene = (fs::path(TENSEGRITY_SOURCE_DIR) / "data" / "reference" / "prism-3.scene.json").string();
+  const std::string out = (dir_.work() / "out.json").string();
+  const ProgramRun solve = run({"solve", scene, "--solver", "nope", "--out", out});
+  EXPECT_EQ(solve.exit_status, 2);
+  EXPECT_EQ(solve.err,
+            "tensegrity: command line: --solver nope: unknown backend (known: alternating, alternating-gn, "
+            "eq5-newton, ipopt, nlopt)\n");
+  const ProgramRun stress = run({"stress-test", "--families", "nope", "--out", out});
+  EXPECT_EQ(stress.exit_status, 2);
+  EXPECT_EQ(stress.err,
+            "tensegrity: command line: --families nope: unknown stress-test family (known: noise, twist, scale, "
+            "length-ratio, near-coincident, near-parallel, mass, gravity-direction)\n");
+  EXPECT_TRUE(work_files().empty());
+}
+
 TEST_F(CliBadInput, CheckRejectsABadScene) {
   const std::string scene = (kBadInputs / "duplicate_reversed.scene.json").string();
   const std::string solution = (dir_.work() / "no-such.solution.json").string();

@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
 #include "process_runner.hpp"
@@ -130,6 +131,20 @@ class BatchProcesses : public ::testing::Test {
 std::vector<Structure> small_scenes() {
   return {scenes::perturbed(scenes::prism(5), 0.05, 3u), scenes::perturbed(scenes::prism(4, 0.0, true), 0.05, 7u),
           scenes::perturbed(scenes::octahedron(), 0.03, 11u)};
+}
+
+// The library names the option and the value; the command line adds its flag
+// (tests/cli_bad_input_test.cpp).
+TEST(StressFamilies, AnUnknownFamilyIsAnOptionValueNotAFlag) {
+  try {
+    scenes::family_levels("nope");
+    ADD_FAILURE() << "family nope has levels";
+  } catch (const UnknownNameError& e) {
+    EXPECT_EQ(e.kind(), "family");
+    EXPECT_STREQ(e.what(),
+                 "options: family 'nope': unknown stress-test family (known: noise, twist, scale, length-ratio, "
+                 "near-coincident, near-parallel, mass, gravity-direction)");
+  }
 }
 
 TEST_F(BatchProcesses, SolutionFilesEqualThoseOfSolve) {

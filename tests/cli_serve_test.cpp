@@ -30,6 +30,7 @@ using testing::wait_program;
 
 const std::string kDuck = std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/duck.character.json";
 constexpr double kServerStartLimit = 60.0;  // s
+const std::string kKnownBackends = "alternating, alternating-gn, eq5-newton, ipopt, nlopt";
 
 // The port of "serving http://127.0.0.1:PORT/" once the server prints it; 0 if it never does.
 int wait_for_port(const std::filesystem::path& logs) {
@@ -125,6 +126,14 @@ TEST_F(ServeSuggestLinkTest, BadRequestGets400AndTheServerKeepsServing) {
   EXPECT_EQ(cli.exit_status, 2);
   EXPECT_EQ(cli.err, "tensegrity: command line: --axis: must be a finite nonzero vector\n");
   EXPECT_EQ(bad->body, "tensegrity: request: --axis: must be a finite nonzero vector\n");
+
+  // A solver name no registry knows: the request names the option, the program its flag.
+  httplib::Client client("127.0.0.1", port_);
+  const auto unknown = client.Post("/api/solve", json{{"scene", json::object()}, {"solver", "nope"}}.dump(),
+                                   "application/json");
+  ASSERT_TRUE(unknown);
+  EXPECT_EQ(unknown->status, 400);
+  EXPECT_EQ(unknown->body, "tensegrity: request: solver 'nope': unknown backend (known: " + kKnownBackends + ")\n");
 
   const auto missing = post({{"character", duck()}, {"a", "body"}, {"b", "tail"}, {"stiff", true}});
   ASSERT_TRUE(missing);

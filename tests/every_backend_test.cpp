@@ -24,6 +24,20 @@ TEST(BackendRegistry, NamesTheDocumentedBackends) {
   EXPECT_EQ(solver_names(), (std::vector<std::string>{"alternating", "alternating-gn", "eq5-newton", "ipopt", "nlopt"}));
 }
 
+// The library names the option and the value; the command line adds its flag
+// (tests/cli_bad_input_test.cpp).
+TEST(BackendRegistry, AnUnknownNameIsAnOptionValueNotAFlag) {
+  try {
+    make_solver("nope");
+    ADD_FAILURE() << "solver nope was made";
+  } catch (const UnknownNameError& e) {
+    EXPECT_EQ(e.kind(), "solver");
+    EXPECT_EQ(e.name(), "nope");
+    EXPECT_STREQ(e.what(),
+                 "options: solver 'nope': unknown backend (known: alternating, alternating-gn, eq5-newton, ipopt, nlopt)");
+  }
+}
+
 TEST_P(EveryBackend, IsMadeUnderItsRegisteredName) {
   EXPECT_EQ(make_solver(GetParam())->name(), GetParam());
 }

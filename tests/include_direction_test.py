@@ -2,7 +2,7 @@
 """Checks that #include directives point one way between the project's folders.
 
     model <- scenes
-    model <- formulations <- kernels <- solvers <- simulation <- design <- cli, bench, python
+    model <- formulations <- kernels <- solvers <- simulation <- design <- reports <- cli, bench, python
     tests may include everything; nothing outside tests/ and bench/ includes them.
 
 Inside solvers/, the interface and driver (solvers/*.hpp, *.cpp) never include a
@@ -20,7 +20,7 @@ import re
 import sys
 import tempfile
 
-LIBRARIES = ["model", "scenes", "formulations", "kernels", "solvers", "simulation", "design"]
+LIBRARIES = ["model", "scenes", "formulations", "kernels", "solvers", "simulation", "design", "reports"]
 ALLOWED = {
     "model": {"model"},
     "scenes": {"scenes", "model"},
@@ -29,11 +29,10 @@ ALLOWED = {
     "solvers": {"solvers", "kernels", "formulations", "model"},
     "simulation": {"simulation", "solvers", "kernels", "formulations", "model"},
     "design": {"design", "simulation", "solvers", "kernels", "formulations", "model"},
+    "reports": {"reports", "design", "simulation", "solvers", "kernels", "formulations", "model"},
     "cli": {"cli", *LIBRARIES},
     "bench": {"bench", *LIBRARIES},
-    # The module compiles a few command helpers of cli/ into itself (option
-    # checks, stress-test runs, the renderer) until they move into a library.
-    "python": {"python", "cli", *LIBRARIES},
+    "python": {"python", *LIBRARIES},
     "tests": {"tests", *LIBRARIES, "cli"},
 }
 INCLUDE = re.compile(r'^\s*#\s*include\s*"([^"]+)"', re.M)
@@ -99,6 +98,10 @@ def self_test():
         "kernels/h.hpp": '#include <coin/IpTNLP.hpp>\n',                    # Ipopt in a header
         "kernels/i.cpp": '#include <coin/IpTNLP.hpp>\n',                    # allowed
         "tests/j.cpp": '#include <coin/IpReturnCodes.hpp>\n',               # allowed
+        "reports/k.cpp": '#include "cli/commands.hpp"\n',                   # into the program
+        "design/l.cpp": '#include "reports/output.hpp"\n',                  # upwards
+        "python/m.cpp": '#include "cli/commands.hpp"\n',                    # module -> program
+        "python/n.cpp": '#include "reports/renderer.hpp"\n',                # allowed
     }
     with tempfile.TemporaryDirectory() as root:
         for rel, text in cases.items():
@@ -107,7 +110,7 @@ def self_test():
                 f.write(text)
         found = violations(root)
     expected_files = {"model/a.hpp", "cli/b.cpp", "solvers/c.cpp", "solvers/nlopt/d.cpp", "design/f.cpp",
-                      "design/g.cpp", "kernels/h.hpp"}
+                      "design/g.cpp", "kernels/h.hpp", "reports/k.cpp", "design/l.cpp", "python/m.cpp"}
     reported = {line.split(":")[0] for line in found}
     if reported != expected_files:
         print("self-test failed: reported", sorted(reported), "expected", sorted(expected_files))

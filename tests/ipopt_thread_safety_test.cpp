@@ -5,11 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
 #include <thread>
 #include <vector>
 
 #include "model/reference_scenes.hpp"
+#include "scenes/perturb.hpp"
 #include "solvers/ipopt/ipopt_solver.hpp"
 
 namespace tensegrity {
@@ -20,13 +20,11 @@ Structure perturbed_prism(int n, unsigned seed) {
   p.n = n;
   p.gravity = p.fix_bottom = (seed % 2) == 0;
   p.strut_mass = p.gravity ? 0.05 : 0.0;
-  Structure s = make_regular_prism(p);
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-0.05, 0.05);
-  for (int i = 0; i < s.num_nodes(); ++i)
-    if (!s.fixed[i])
-      for (int k = 0; k < 3; ++k) s.positions(k, i) += u(rng);
-  return s;
+  scenes::NodeNoise noise;  // up to 5 cm per coordinate on the free nodes
+  noise.fraction = 0.05;
+  noise.length = scenes::LengthMeasure::OneMetre;
+  noise.shape = scenes::NoiseShape::Cube;
+  return scenes::with_node_noise(make_regular_prism(p), noise, seed);
 }
 
 TEST(IpoptThreadSafety, ConcurrentSolvesEqualSerialOnes) {

@@ -1,4 +1,4 @@
-// tensegrity.design: the pipeline of `tensegrity design` (cli/design_pipeline.hpp)
+// tensegrity.design: the pipeline of `tensegrity design` (reports/design_pipeline.hpp)
 // with the command's option checks in the command's order and its messages; the
 // file written by DesignResult.save is the one `tensegrity design --out` writes.
 #include <pybind11/numpy.h>
@@ -17,10 +17,10 @@
 #include <utility>
 #include <vector>
 
-#include "cli/design_pipeline.hpp"
-#include "cli/fabrication_sheet.hpp"
-#include "cli/naive_comparison_report.hpp"
-#include "cli/output.hpp"
+#include "reports/design_pipeline.hpp"
+#include "reports/fabrication_sheet.hpp"
+#include "reports/naive_comparison_report.hpp"
+#include "reports/output.hpp"
 #include "design/naive_sweep.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"

@@ -7,7 +7,7 @@
 #include <exception>
 #include <string>
 
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "python/src/bindings.hpp"
 
@@ -23,6 +23,8 @@ PYBIND11_MODULE(_core, m) {
       if (p) std::rethrow_exception(p);
     } catch (const OptionError& e) {
       PyErr_SetString(PyExc_ValueError, cli::option_error_line(e).c_str());
+    } catch (const UnknownNameError& e) {
+      PyErr_SetString(PyExc_ValueError, cli::unknown_name_line(e).c_str());
     } catch (const InputError& e) {
       PyErr_SetString(PyExc_ValueError, (std::string(kMessagePrefix) + e.what()).c_str());
     }

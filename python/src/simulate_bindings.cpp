@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "cli/renderer.hpp"
+#include "reports/renderer.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"
 #include "simulation/simulator.hpp"

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "cli/output.hpp"
-#include "cli/prestress_factor_option.hpp"
+#include "reports/prestress_factor.hpp"
+#include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "model/solution.hpp"
 #include "model/verify.hpp"

@@ -1,4 +1,4 @@
-#include "cli/fabrication_sheet.hpp"
+#include "reports/fabrication_sheet.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -6,8 +6,8 @@
 #include <sstream>
 #include <vector>
 
-#include "cli/canvas.hpp"
-#include "cli/exporters.hpp"
+#include "reports/canvas.hpp"
+#include "reports/exporters.hpp"
 
 namespace tensegrity::cli {
 

@@ -1,11 +1,11 @@
-#include "cli/exporters.hpp"
+#include "reports/exporters.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
 
-#include "cli/canvas.hpp"
+#include "reports/canvas.hpp"
 #include "model/errors.hpp"
 
 namespace tensegrity::cli {

@@ -1,4 +1,4 @@
-#include "cli/renderer.hpp"
+#include "reports/renderer.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -7,8 +7,8 @@
 #include <map>
 #include <numeric>
 
-#include "cli/canvas.hpp"
-#include "cli/exporters.hpp"
+#include "reports/canvas.hpp"
+#include "reports/exporters.hpp"
 #include "model/errors.hpp"
 
 namespace tensegrity::cli {

@@ -1,4 +1,4 @@
-#include "cli/naive_comparison_report.hpp"
+#include "reports/naive_comparison_report.hpp"
 
 #include <cstdio>
 

@@ -1,4 +1,4 @@
-#include "cli/canvas.hpp"
+#include "reports/canvas.hpp"
 
 #include <cairo.h>
 

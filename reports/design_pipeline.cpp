@@ -1,4 +1,4 @@
-#include "cli/design_pipeline.hpp"
+#include "reports/design_pipeline.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <map>
 #include <sstream>
 
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 #include "formulations/force_scale.hpp"
 #include "model/character.hpp"
 #include "model/errors.hpp"

@@ -1,4 +1,4 @@
-#include "cli/output.hpp"
+#include "reports/output.hpp"
 
 #include <cstdio>
 #include <sstream>
@@ -12,6 +12,13 @@ namespace tensegrity::cli {
 std::string option_error_line(const OptionError& e) {
   return "tensegrity: command line: --option " + e.key() + (e.value().empty() ? "" : "=" + e.value()) + ": " +
          e.reason() + " (solver " + e.backend() + ")";
+}
+
+std::string unknown_name_line(const UnknownNameError& e) {
+  const std::map<std::string, std::string> flag_of_kind = {{"solver", "--solver"}, {"family", "--families"}};
+  const auto flag = flag_of_kind.find(e.kind());
+  return "tensegrity: command line: " + (flag == flag_of_kind.end() ? "--" + e.kind() : flag->second) + " " +
+         e.name() + ": " + e.reason();
 }
 
 std::string summary_line(const Structure& scene, std::string_view solver, const SolveResult& r) {
