@@ -21,15 +21,16 @@ import tempfile
 
 SCENE = pathlib.Path("data") / "reference" / "prism-7-gravity.scene.json"
 BACKEND = "ipopt"
-KAPPA = "5"
+KAPPA = "2"  # not the default, so that an ignored option shows
 # The geometry change of one solve read back from two files (solution, report)
 # that both print it with 17 significant digits.
 SAME_NUMBER = 1e-12
-# kappa = 1 and kappa = 5 move the prism by clearly different amounts
+# kappa = 1, 2 and 5 move the prism by clearly different amounts
 # (docs/THEORY-force-scale.md); a tenth of the smaller is far beyond solver noise.
 CLEARLY_DIFFERENT = 0.1
 BAD_VALUES = ["0", "-1", "nan", "inf"]
 BAD_LINE = "tensegrity: command line: --prestress-factor: must be a finite number > 0\n"
+DEFAULT_KAPPA = "5"  # kDefaultPrestressFactor
 HELP_WORDS = "kappa: under gravity Eq. 5 caps the mean cable force at kappa times the part's weight"
 
 
@@ -126,7 +127,7 @@ def check_bad_values(checks, binary, scene, data, work):
                           f"{name} --prestress-factor={value}: exit {done.returncode}, stderr {done.stderr!r}")
             checks.expect(sorted(work.rglob("*")) == before, f"{name} --prestress-factor={value} wrote a file")
         help_text = " ".join(run(binary, name, "--help").stdout.split())
-        checks.expect(HELP_WORDS in help_text and "default 1;" in help_text,
+        checks.expect(HELP_WORDS in help_text and f"default {DEFAULT_KAPPA};" in help_text,
                       f"{name} --help does not describe --prestress-factor")
 
 
@@ -140,9 +141,11 @@ def main():
     with tempfile.TemporaryDirectory(prefix="tensegrity-kappa-") as folder:
         work = pathlib.Path(folder)
         at_default = solve_change(args.binary, scene, work, None)
+        at_five = solve_change(args.binary, scene, work, DEFAULT_KAPPA)
         at_one = solve_change(args.binary, scene, work, "1")
         at_kappa = solve_change(args.binary, scene, work, KAPPA)
-        checks.expect(at_default == at_one, f"solve: the default kappa moves {at_default!r}, kappa 1 {at_one!r}")
+        checks.expect(at_default == at_five,
+                      f"solve: the default kappa moves {at_default!r}, kappa {DEFAULT_KAPPA} {at_five!r}")
         checks.expect(math.isfinite(at_kappa) and abs(at_kappa - at_one) > CLEARLY_DIFFERENT * min(at_one, at_kappa),
                       f"solve: kappa 1 moves {at_one!r}, kappa {KAPPA} {at_kappa!r}: not clearly different")
         check_batch(checks, args.binary, scene, work, at_kappa)
