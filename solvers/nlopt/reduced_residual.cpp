@@ -5,18 +5,9 @@
 
 namespace tensegrity {
 
-ForceScale ReducedResidual::qp_scale(const ForceScale& scale) {
-  ForceScale s = scale;
-  if (scale.has_prestress_cap()) {
-    s.load_sets_scale = false;  // has_normalisation() is now true ...
-    s.normalisation_target = scale.prestress_cap;  // ... with the cap as its target
-  }
-  return s;
-}
-
 ReducedResidual::ReducedResidual(const Structure& part, const ForceScale& scale,
                                  const Eigen::VectorXd& initial_forces)
-    : part_(part), eq_(part_), scale_(qp_scale(scale)), qp_(eq_, scale_) {
+    : part_(part), eq_(part_), scale_(held_at_prestress_cap(scale)), qp_(eq_, scale_) {
   const double mean_length = part_.mean_element_length();
   length_ = std::isfinite(mean_length) && mean_length > 0.0 ? mean_length : 1.0;
   reference_force_ = scale_.reference_force > 0.0 ? scale_.reference_force : 1.0;

@@ -65,8 +65,6 @@ class ReducedResidual {
   Eigen::Matrix3Xd positions(const double* y) const;
 
  private:
-  // Eq. 5's force scale as the QP's normalisation (the cap becomes its target).
-  static ForceScale qp_scale(const ForceScale& scale);
 
   Structure part_;
   Equilibrium eq_;
