@@ -144,7 +144,8 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
                   "Folder for the solution files (one subfolder per backend when several are given)")
       ->required();
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
-  cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget per scene"));
+  cmd->add_option("--max-iterations", args->max_iterations,
+                  reports::max_iterations_help("Backend iteration budget per scene"));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds per scene");
   add_prestress_factor_option(*cmd, &args->prestress_factor);
   cmd->add_option("--kill-after", args->kill_after,
@@ -167,13 +168,14 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       settings.options.tolerance = args->tol;
       settings.options.max_iterations = args->max_iterations;
       settings.options.time_limit_s = args->time_limit;
-      settings.options.prestress_factor = checked_prestress_factor(args->prestress_factor);
+      settings.options.prestress_factor = reports::checked_prestress_factor(args->prestress_factor);
       settings.controls.skip_if_in_equilibrium = !args->no_skip;
       settings.kill_after_s = args->kill_after > 0.0 ? args->kill_after : 2.0 * args->time_limit + 5.0;
       if (!(args->kill_after >= 0.0)) throw InputError("command line", "--kill-after", "must be a number >= 0");
       std::vector<std::string> solver_names = args->solvers;
       if (solver_names.empty()) solver_names.push_back("");
-      for (std::string& name : solver_names) name = std::string(checked_solver(name, settings.options)->name());
+      for (std::string& name : solver_names)
+        name = std::string(reports::checked_solver(name, settings.options)->name());
       for (std::size_t k = solver_names.size(); k-- > 1;)  // each backend once, in the given order
         if (std::find(solver_names.begin(), solver_names.begin() + static_cast<std::ptrdiff_t>(k), solver_names[k]) !=
             solver_names.begin() + static_cast<std::ptrdiff_t>(k))

@@ -30,7 +30,7 @@ struct CompareArgs {
 
 CompareRow compare_one(const Structure& scene, const std::string& name, const SolveOptions& options, int repeat,
                        const TracePoint& start) {
-  const auto solver = checked_solver(name, options);
+  const auto solver = reports::checked_solver(name, options);
   std::vector<SolveResult> runs;
   for (int k = 0; k < repeat; ++k) runs.push_back(solve_scene(*solver, scene, options));
   std::vector<double> seconds;
@@ -66,7 +66,7 @@ void register_compare_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--repeat", args->repeat, "Solves per backend; seconds is their median")->check(CLI::Range(1, 1000));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget per solve in seconds");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
-  cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget"));
+  cmd->add_option("--max-iterations", args->max_iterations, reports::max_iterations_help("Backend iteration budget"));
   add_prestress_factor_option(*cmd, &args->prestress_factor);
   cmd->add_option("--out", args->out_dir, "Folder for compare.csv, compare.json, compare-trace.csv, compare.png/.svg")
       ->required();
@@ -77,9 +77,9 @@ void register_compare_command(CLI::App& app, CommandRunner& run) {
       options.tolerance = args->tol;
       options.max_iterations = args->max_iterations;
       options.time_limit_s = args->time_limit;
-      options.prestress_factor = checked_prestress_factor(args->prestress_factor);
+      options.prestress_factor = reports::checked_prestress_factor(args->prestress_factor);
       std::vector<std::string> names = args->solvers.empty() ? solver_names() : args->solvers;
-      for (const std::string& name : names) checked_solver(name, options);  // usage errors before any work
+      for (const std::string& name : names) reports::checked_solver(name, options);  // usage errors before any work
       const Structure scene = read_scene_file(args->scene);
       std::error_code ec;
       std::filesystem::create_directories(args->out_dir, ec);

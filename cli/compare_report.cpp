@@ -11,6 +11,10 @@
 
 namespace tensegrity::cli {
 
+using reports::Canvas;
+using reports::Colour;
+using reports::TextAnchor;
+
 namespace {
 
 std::string g17(double v) {

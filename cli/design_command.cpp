@@ -45,7 +45,7 @@ namespace tensegrity::cli {
 namespace {
 
 struct DesignArgs {
-  std::string input, out, sheet, material = kDefaultMaterial, solver;
+  std::string input, out, sheet, material = reports::kDefaultMaterial, solver;
   double strain = 0.3;
   double naive_fraction = std::nan("");
   double tol = 1e-8;
@@ -106,7 +106,7 @@ std::string default_sheet_path(const std::string& path, const std::string& suffi
 }
 
 int run_design(const DesignArgs& a) {
-  DesignRequest req;
+  reports::DesignRequest req;
   req.material = a.material;
   req.material_dirs = a.material_dirs;
   req.strain = a.strain;
@@ -114,7 +114,7 @@ int run_design(const DesignArgs& a) {
   req.tol = a.tol;
   req.time_limit = a.time_limit;
   req.quiet = a.quiet;
-  check_design_request(req);
+  reports::check_design_request(req);
   const bool naive = !std::isnan(a.naive_fraction);
   if (a.out.empty()) throw InputError("command line", "--out", "missing");
   if (a.out == "-" && a.sheet == "-")
@@ -137,10 +137,10 @@ int run_design(const DesignArgs& a) {
   SolveOptions options;
   options.tolerance = a.tol;
   options.time_limit_s = a.time_limit;
-  const auto solver = checked_solver(a.solver, options);  // unknown names fail before any work
+  const auto solver = reports::checked_solver(a.solver, options);  // unknown names fail before any work
 
-  const Structure scene = read_design_input(a.input);
-  DesignOutcome outcome = design_structure(scene, a.input, req, *solver);
+  const Structure scene = reports::read_design_input(a.input);
+  reports::DesignOutcome outcome = reports::design_structure(scene, a.input, req, *solver);
   if (!outcome.ok) return no_design(a.input, outcome.failure_item, outcome.failure_reason);
   Design& d = outcome.design;
   const RestLengthDesign& rest = outcome.rest;
@@ -154,17 +154,17 @@ int run_design(const DesignArgs& a) {
       std::cerr << "\rdesign: settling " << done << "/" << total << std::flush;
       if (done == total) std::cerr << "\n";
     });
-    if (!a.quiet) std::cerr << naive_comparison_table(c, settle_options.method);
-    d.info["naive_comparison"] = naive_comparison_json(c, settle_options.method);
+    if (!a.quiet) std::cerr << reports::naive_comparison_table(c, settle_options.method);
+    d.info["naive_comparison"] = reports::naive_comparison_json(c, settle_options.method);
   }
 
   // The sheet first: standard output (--out -) cannot be taken back. Without
   // --sheet it goes beside the design, with the printable cut list.
   const std::string sheet = a.sheet.empty() ? default_sheet_path(a.out, ".sheet.csv") : a.sheet;
   const std::string cut_list = default_sheet_path(sheet == "-" ? a.out : sheet, ".cutlist.svg");
-  if (!sheet.empty()) write_text_file_atomically(sheet, fabrication_sheet_csv(d, rest.lengths));
+  if (!sheet.empty()) write_text_file_atomically(sheet, reports::fabrication_sheet_csv(d, rest.lengths));
   try {
-    if (!cut_list.empty()) write_cut_list(d, rest.lengths, cut_list);
+    if (!cut_list.empty()) reports::write_cut_list(d, rest.lengths, cut_list);
     write_design_file(d, a.out);
   } catch (...) {
     std::error_code ec;

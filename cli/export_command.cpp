@@ -70,14 +70,14 @@ void register_export_command(CLI::App& app, CommandRunner& run) {
       ->check(CLI::PositiveNumber);
   cmd->callback([args, &run] {
     run = [args] {
-      const ExportFormat format = export_format_for(args->out, args->format);
+      const reports::ExportFormat format = reports::export_format_for(args->out, args->format);
       const ExportSource src = read_export_source(*args);
       switch (format) {
-        case ExportFormat::Mjcf:
+        case reports::ExportFormat::Mjcf:
           if (!src.design) throw InputError(args->input, "", "MJCF export needs a design (rest lengths and cords)");
           write_text_file_atomically(args->out, write_mjcf(*src.design));
           break;
-        case ExportFormat::NtrtYaml: {
+        case reports::ExportFormat::NtrtYaml: {
           NtrtExtras extras;
           if (src.design || !src.forces.isZero(0.0)) extras.forces = src.forces;
           if (src.design) {
@@ -98,13 +98,13 @@ void register_export_command(CLI::App& app, CommandRunner& run) {
           write_text_file_atomically(args->out, write_ntrt_yaml(src.scene, src.positions, extras, args->length_scale));
           break;
         }
-        case ExportFormat::Obj:
+        case reports::ExportFormat::Obj:
           if (args->out != "-")
-            write_text_file_atomically(args->out + ".forces.csv", element_forces_csv(src.scene, src.forces));
-          write_text_file_atomically(args->out, export_lines(src.scene, src.positions, src.forces, format));
+            write_text_file_atomically(args->out + ".forces.csv", reports::element_forces_csv(src.scene, src.forces));
+          write_text_file_atomically(args->out, reports::export_lines(src.scene, src.positions, src.forces, format));
           break;
         default:
-          write_text_file_atomically(args->out, export_lines(src.scene, src.positions, src.forces, format));
+          write_text_file_atomically(args->out, reports::export_lines(src.scene, src.positions, src.forces, format));
       }
       return 0;
     };

@@ -29,8 +29,8 @@ void register_forces_command(CLI::App& app, CommandRunner& run) {
       const Structure scene = read_scene_file(args->scene);
       const SolveResult r = solve_forces_only(scene, options);
       write_solution_file(to_solution(r, scene, "stress-qp"), args->out);
-      std::cerr << summary_line(scene, "stress-qp", r) << "\n";
-      return exit_status(r.status);
+      std::cerr << reports::summary_line(scene, "stress-qp", r) << "\n";
+      return reports::exit_status(r.status);
     };
   });
 }

@@ -32,8 +32,8 @@ void register_import_command(CLI::App& app, CommandRunner& run) {
       ->check(CLI::NonNegativeNumber);
   cmd->callback([args, &run] {
     run = [args] {
-      const bool yaml = args->format == "ntrt-yaml" ||
-                        (args->format.empty() && (ends_with(args->input, ".yaml") || ends_with(args->input, ".yml")));
+      const bool yaml_name = reports::ends_with(args->input, ".yaml") || reports::ends_with(args->input, ".yml");
+      const bool yaml = args->format == "ntrt-yaml" || (args->format.empty() && yaml_name);
       if (!args->format.empty() && args->format != "ntrt-yaml")
         throw InputError("command line", "--format", "must be ntrt-yaml (got '" + args->format + "')");
       if (!yaml) throw InputError("command line", args->input, "unknown extension (.yaml); name the format with --format");

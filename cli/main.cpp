@@ -48,10 +48,10 @@ int main(int argc, char** argv) {
     return run ? run() : 2;
   } catch (const OptionError& e) {
     // The library names the option; the command line names the flag that gave it.
-    std::cerr << cli::option_error_line(e) << "\n";
+    std::cerr << reports::option_error_line(e) << "\n";
     return 2;
   } catch (const UnknownNameError& e) {
-    std::cerr << cli::unknown_name_line(e) << "\n";
+    std::cerr << reports::unknown_name_line(e) << "\n";
     return 2;
   } catch (const InputError& e) {
     std::cerr << "tensegrity: " << e.what() << "\n";

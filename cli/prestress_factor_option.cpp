@@ -12,7 +12,7 @@ void add_prestress_factor_option(CLI::App& command, double* kappa) {
                 "kappa: under gravity Eq. 5 caps the mean cable force at kappa times the part's weight "
                 "(finite, > 0; default %g; docs/THEORY-force-scale.md)",
                 kDefaultPrestressFactor);
-  command.add_option(kPrestressFactorFlag, *kappa, help);
+  command.add_option(reports::kPrestressFactorFlag, *kappa, help);
 }
 
 }  // namespace tensegrity::cli

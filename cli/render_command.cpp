@@ -20,7 +20,7 @@ struct RenderArgs {
   std::string input, solution, frames, out;
   int frame = -1;  // -1: the last
   bool no_legend = false, no_reference = false;
-  RenderOptions options;
+  reports::RenderOptions options;
 };
 
 // Positions and forces of frame `index` of a `simulate` JSON Lines file.
@@ -64,7 +64,7 @@ int run_render(RenderArgs& a) {
   a.options.legend = !a.no_legend;
   const nlohmann::json j = read_json_file(a.input);
   const bool design_input = j.is_object() && j.value("format", "") == "tensegrity-design";
-  RenderData data;
+  reports::RenderData data;
   if (design_input) {
     const Design d = design_from_json(j, a.input);
     const Structure& s = d.structure;
@@ -75,22 +75,22 @@ int run_render(RenderArgs& a) {
       data.forces = f;
       if (!a.no_reference) data.reference = d.solution.positions;
       if (a.options.title.empty()) a.options.title = s.name + ", t = " + std::to_string(time).substr(0, 6) + " s";
-      render_structure(s, x, data, a.options, a.out);
+      reports::render_structure(s, x, data, a.options, a.out);
     } else {
       data.forces = d.solution.forces;
-      render_structure(s, d.solution.positions, data, a.options, a.out);
+      reports::render_structure(s, d.solution.positions, data, a.options, a.out);
     }
     return 0;
   }
   if (!a.frames.empty()) throw InputError("command line", "--frames", "frames belong to a design: give the design file");
   const Structure scene = scene_from_json(j, a.input);
   if (a.solution.empty()) {
-    render_structure(scene, scene.positions, data, a.options, a.out);
+    reports::render_structure(scene, scene.positions, data, a.options, a.out);
   } else {
     const Solution sol = read_solution_file(a.solution, scene);
     data.forces = sol.forces;
     if (!a.no_reference) data.reference = scene.positions;
-    render_structure(scene, sol.positions, data, a.options, a.out);
+    reports::render_structure(scene, sol.positions, data, a.options, a.out);
   }
   return 0;
 }

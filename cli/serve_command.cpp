@@ -249,7 +249,7 @@ class WebApp {
                       {"nodes", b.structure.num_nodes()}, {"elements", b.structure.num_elements()}};
     }
     return {{"solvers", solver_names()}, {"default_solver", default_solver_name()}, {"blocks", blocks},
-            {"materials", {"elastic-cord-2mm", "elastic-cord-1mm"}}, {"default_material", kDefaultMaterial},
+            {"materials", {"elastic-cord-2mm", "elastic-cord-1mm"}}, {"default_material", reports::kDefaultMaterial},
             {"time_limit", args_.time_limit}, {"initial", initial_},
             {"writes_character", writes_character()}};
   }
@@ -276,11 +276,11 @@ class WebApp {
     const bool wrapped = body.is_object() && body.contains("scene") && !body.contains("format");
     const nlohmann::json& params = wrapped ? body : nlohmann::json::object();
     const SolveOptions options = solve_options(req, params);
-    const auto solver = checked_solver(string_param(req, params, "solver"), options);
+    const auto solver = reports::checked_solver(string_param(req, params, "solver"), options);
     const Structure scene = scene_from_json(wrapped ? body.at("scene") : body, kRequestSource);
     const std::string name(solver->name());
     const SolveResult r = solve_scene(*solver, scene, options);
-    std::cerr << "serve: " << summary_line(scene, name, r) << "\n";
+    std::cerr << "serve: " << reports::summary_line(scene, name, r) << "\n";
     reply_json(res, solution_to_json(to_solution(r, scene, name)));
   }
 
@@ -299,7 +299,7 @@ class WebApp {
     if (format == "tensegrity-character") scene = build_character(input, kRequestSource, library_).structure;
     else if (format == "tensegrity-design") scene = design_from_json(input, kRequestSource).structure;
     else scene = scene_from_json(input, kRequestSource);
-    DesignRequest dr;
+    reports::DesignRequest dr;
     dr.options_source = kRequestSource;
     if (body.contains("material")) dr.material = json_string(body.at("material"), kRequestSource, "material");
     if (dr.material.find('/') != std::string::npos || dr.material.ends_with(".json"))
@@ -311,9 +311,9 @@ class WebApp {
     if (!args_.input.empty())  // materials beside the served file's data folder
       dr.material_dirs.push_back(
           (std::filesystem::path(args_.input).parent_path() / ".." / "materials").lexically_normal().string());
-    check_design_request(dr);
-    const auto solver = checked_solver(string_param(req, body, "solver"), options);
-    DesignOutcome out = design_structure(scene, kRequestSource, dr, *solver);
+    reports::check_design_request(dr);
+    const auto solver = reports::checked_solver(string_param(req, body, "solver"), options);
+    reports::DesignOutcome out = reports::design_structure(scene, kRequestSource, dr, *solver);
     if (!out.ok) {
       reply_error(res, 422,
                   std::string(kRequestSource) + ": " + (out.failure_item.empty() ? "" : out.failure_item + ": ") +
@@ -321,7 +321,7 @@ class WebApp {
       return;
     }
     reply_json(res, {{"design", design_to_json(out.design)},
-                     {"sheet", fabrication_sheet_csv(out.design, out.rest.lengths)},
+                     {"sheet", reports::fabrication_sheet_csv(out.design, out.rest.lengths)},
                      {"strain_range", {out.strain_range.first, out.strain_range.second}}});
   }
 

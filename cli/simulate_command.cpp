@@ -124,7 +124,8 @@ std::string g17(double v) {
 // The same arrays as `tensegrity export` (cli/exporters.hpp).
 void write_vtk(const std::string& path, const Structure& s, const Eigen::Matrix3Xd& x, const Eigen::VectorXd& forces,
                double time) {
-  write_text_file_atomically(path, export_lines(s, x, forces, ExportFormat::Vtk, "tensegrity " + s.name + " t=" + g17(time)));
+  const std::string title = "tensegrity " + s.name + " t=" + g17(time);
+  write_text_file_atomically(path, reports::export_lines(s, x, forces, reports::ExportFormat::Vtk, title));
 }
 
 // Six evenly spaced frames side by side.
@@ -137,13 +138,13 @@ void write_filmstrip(const std::string& path, const Structure& s,
   const std::string tmp = path + ".frame.png";
   for (int k = 0; k < count; ++k) {
     const int index = count == 1 ? 0 : static_cast<int>(std::lround(double(k) * (frames.size() - 1) / (count - 1)));
-    RenderOptions ro;
+    reports::RenderOptions ro;
     ro.width = w;
     ro.height = h;
     char title[64];
     std::snprintf(title, sizeof title, "t = %.3f s", frames[index].first);
     ro.title = title;
-    render_scene(s, frames[index].second.first, frames[index].second.second, ro, tmp);
+    reports::render_scene(s, frames[index].second.first, frames[index].second.second, ro, tmp);
     cairo_surface_t* img = cairo_image_surface_create_from_png(tmp.c_str());
     cairo_set_source_surface(cr, img, k * w, 0);
     cairo_paint(cr);

@@ -74,7 +74,7 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--solver", args->solver, "Backend name (see `tensegrity solvers`); default: the recommended one");
   cmd->add_option("--out", args->out, "Solution file, - for standard output");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
-  cmd->add_option("--max-iterations", args->max_iterations, max_iterations_help("Backend iteration budget"));
+  cmd->add_option("--max-iterations", args->max_iterations, reports::max_iterations_help("Backend iteration budget"));
   cmd->add_option("--time-limit", args->time_limit, "Wall-clock budget in seconds");
   add_prestress_factor_option(*cmd, &args->prestress_factor);
   cmd->add_option("--option", args->options, "Backend option key=value (repeatable)");
@@ -92,12 +92,12 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
       options.tolerance = args->tol;
       options.max_iterations = args->max_iterations;
       options.time_limit_s = args->time_limit;
-      options.prestress_factor = checked_prestress_factor(args->prestress_factor);
+      options.prestress_factor = reports::checked_prestress_factor(args->prestress_factor);
       options.verbose = args->verbose;
       DriverControls controls;
       controls.skip_if_in_equilibrium = !args->no_skip;
-      options.backend_options = parse_key_values(args->options);
-      const auto solver = checked_solver(args->solver, options);
+      options.backend_options = reports::parse_key_values(args->options);
+      const auto solver = reports::checked_solver(args->solver, options);
       const std::string name(solver->name());
       const Structure scene = read_scene_file(args->scene);
       // A line rewritten in place would garble the --verbose log.
@@ -117,8 +117,8 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
         write_scene_file(solved, args->out_scene);
       }
       // --quiet keeps the summary of a failed solve: it says why.
-      if (!args->quiet || r.status != Status::Converged) std::cerr << summary_line(scene, name, r) << "\n";
-      return exit_status(r.status);
+      if (!args->quiet || r.status != Status::Converged) std::cerr << reports::summary_line(scene, name, r) << "\n";
+      return reports::exit_status(r.status);
     };
   });
 }

@@ -137,8 +137,8 @@ void register_stress_test_command(CLI::App& app, CommandRunner& run) {
       o.measure_speedup = args->measure_speedup;
       o.time_limit_s = args->time_limit;
       o.tolerance = args->tol;
-      o.prestress_factor = checked_prestress_factor(args->prestress_factor);
-      o.backend_options = parse_key_values(args->options);
+      o.prestress_factor = reports::checked_prestress_factor(args->prestress_factor);
+      o.backend_options = reports::parse_key_values(args->options);
       o.data_dir = find_data_dir(args->data);
       o.with_times = !args->no_times;
       if (!args->failures_dir.empty()) {

@@ -10,7 +10,7 @@
 
 #include "model/scene_io.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 namespace {
 
@@ -237,4 +237,4 @@ void Canvas::write(const std::string& path) const {
   }
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

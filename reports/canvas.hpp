@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 struct Colour {
   double r = 0, g = 0, b = 0, a = 1;  // 0..1
@@ -71,4 +71,4 @@ class Canvas {
 // True when `path` ends in `suffix` (case-sensitive).
 bool ends_with(const std::string& path, const std::string& suffix);
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

@@ -19,7 +19,7 @@
 #include "design/stiffness_solver.hpp"
 #include "model/json_text.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 namespace {
 
@@ -326,4 +326,4 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
   return out;
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

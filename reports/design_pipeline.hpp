@@ -14,7 +14,7 @@
 #include "model/structure.hpp"
 #include "solvers/solver.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 // The 2 mm cord: the 1 mm one carries the duck but neither the scorpion nor the
 // puppy (docs/CHARACTERS.md).
@@ -55,4 +55,4 @@ void check_design_request(const DesignRequest& req);
 DesignOutcome design_structure(const Structure& scene, const std::string& input, const DesignRequest& req,
                                const Solver& solver);
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

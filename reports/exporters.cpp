@@ -8,7 +8,7 @@
 #include "reports/canvas.hpp"
 #include "model/errors.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 namespace {
 
@@ -131,4 +131,4 @@ std::string export_lines(const Structure& scene, const Eigen::Matrix3Xd& x, cons
   return out.str();
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

@@ -16,7 +16,7 @@
 
 #include "model/structure.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 enum class ExportFormat { Vtk, Obj, Ply, NtrtYaml, Mjcf };
 
@@ -35,4 +35,4 @@ std::string element_forces_csv(const Structure& scene, const Eigen::VectorXd& fo
 // local id, else "strut-E" / "cable-E" with the global index.
 std::string element_name(const Structure& scene, int e);
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

@@ -9,7 +9,7 @@
 #include "reports/canvas.hpp"
 #include "reports/exporters.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 namespace {
 
@@ -146,4 +146,4 @@ void write_cut_list(const Design& d, const Eigen::VectorXd& lengths, const std::
   c.write(path);
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

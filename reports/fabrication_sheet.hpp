@@ -21,11 +21,11 @@
 
 #include "model/design.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 // `lengths`: the stretched length of every element at the designed geometry (m).
 std::string fabrication_sheet_csv(const Design& d, const Eigen::VectorXd& lengths);
 // Writes the cut list to `path` (.svg or .png).
 void write_cut_list(const Design& d, const Eigen::VectorXd& lengths, const std::string& path);
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

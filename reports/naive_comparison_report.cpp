@@ -2,7 +2,7 @@
 
 #include <cstdio>
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 namespace {
 
@@ -73,4 +73,4 @@ nlohmann::json naive_comparison_json(const NaiveComparison& c, SettleMethod meth
   return j;
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

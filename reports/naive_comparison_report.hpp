@@ -8,7 +8,7 @@
 
 #include "design/naive_sweep.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 // Lines "design: ..." for standard error, ending with the verdict.
 std::string naive_comparison_table(const NaiveComparison& c, SettleMethod method);
@@ -16,4 +16,4 @@ std::string naive_comparison_table(const NaiveComparison& c, SettleMethod method
 //  "naive": [{fraction, in_material_range, ...}], "best_fraction"}.
 nlohmann::json naive_comparison_json(const NaiveComparison& c, SettleMethod method);
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

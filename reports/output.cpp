@@ -7,7 +7,7 @@
 #include "model/scene_io.hpp"
 #include "solvers/alternating/alternating_solver.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 std::string option_error_line(const OptionError& e) {
   return "tensegrity: command line: --option " + e.key() + (e.value().empty() ? "" : "=" + e.value()) + ": " +
@@ -57,4 +57,4 @@ std::string max_iterations_help(const std::string& what) {
          " outer iterations for alternating, " + std::to_string(kDefaultIterationBudget) + " for the others)";
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

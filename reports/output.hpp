@@ -9,7 +9,7 @@
 #include "solvers/solver.hpp"
 #include "solvers/trace_csv.hpp"  // write_trace_csv, which the commands use with these
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 // The one line the program prints for a bad backend option: the library names
 // the option, the command line names the flag that gave it.
@@ -30,4 +30,4 @@ std::string max_iterations_help(const std::string& what);
 // Exit status of a finished solve (docs/USER-GUIDE.md): 0 converged, 1 otherwise.
 inline int exit_status(Status s) { return s == Status::Converged ? 0 : 1; }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

@@ -6,7 +6,7 @@
 
 #include "model/errors.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 inline constexpr const char* kPrestressFactorFlag = "--prestress-factor";
 
@@ -17,4 +17,4 @@ inline double checked_prestress_factor(double kappa) {
   return kappa;
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

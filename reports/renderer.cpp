@@ -11,7 +11,7 @@
 #include "reports/exporters.hpp"
 #include "model/errors.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 namespace {
 
@@ -300,4 +300,4 @@ void render_structure(const Structure& scene, const Eigen::Matrix3Xd& x, const R
   c.write(path);
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

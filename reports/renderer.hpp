@@ -20,7 +20,7 @@
 
 #include "model/structure.hpp"
 
-namespace tensegrity::cli {
+namespace tensegrity::reports {
 
 struct RenderOptions {
   std::string view = "iso";        // front | side | top | iso
@@ -53,4 +53,4 @@ inline void render_scene(const Structure& scene, const Eigen::Matrix3Xd& positio
   render_structure(scene, positions, data, options, path);
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity::reports

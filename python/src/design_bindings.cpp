@@ -39,7 +39,7 @@ constexpr double kMaxSettleDuration = 1e4;
 // The options of `tensegrity design` but its output paths.
 struct DesignArguments {
   double strain = 0.3;
-  std::string material = cli::kDefaultMaterial;
+  std::string material = reports::kDefaultMaterial;
   std::vector<std::string> material_dirs;
   double naive_fraction = std::nan("");
   std::string solver;
@@ -57,7 +57,7 @@ struct PyDesign {
   std::string input;    // names the input in messages
   std::string message;  // the command's last line on standard error
   std::string comparison_table;  // --compare-naive's table, "" without it
-  cli::DesignOutcome outcome;
+  reports::DesignOutcome outcome;
 
   const Design& design() const {
     if (!ok) throw std::runtime_error(message);
@@ -101,7 +101,7 @@ std::vector<double> parse_fraction_grid(const std::string& spec) {
 // `scene` given: designs it, named `input` in messages; else reads the file
 // `input` (scene, character or design), as the command does.
 PyDesign run_design(const std::shared_ptr<Structure>& scene, const std::string& input, const DesignArguments& a) {
-  cli::DesignRequest req;
+  reports::DesignRequest req;
   req.material = a.material;
   req.material_dirs = a.material_dirs;
   // The program finds the checkout's materials beside itself; the module, where it was built from.
@@ -110,7 +110,7 @@ PyDesign run_design(const std::shared_ptr<Structure>& scene, const std::string& 
   req.naive_fraction = a.naive_fraction;
   req.tol = a.tol;
   req.time_limit = a.time_limit;
-  cli::check_design_request(req);
+  reports::check_design_request(req);
   const bool naive = !std::isnan(a.naive_fraction);
   const bool compare = a.compare_naive || !a.naive_fractions.empty();
   if (compare && naive)
@@ -128,13 +128,13 @@ PyDesign run_design(const std::shared_ptr<Structure>& scene, const std::string& 
   SolveOptions options;
   options.tolerance = a.tol;
   options.time_limit_s = a.time_limit;
-  const auto solver = cli::checked_solver(a.solver, options);  // unknown names fail before any work
+  const auto solver = reports::checked_solver(a.solver, options);  // unknown names fail before any work
 
   PyDesign out;
   out.input = input;
   py::gil_scoped_release release;
-  const Structure structure = scene ? *scene : cli::read_design_input(input);
-  out.outcome = cli::design_structure(structure, input, req, *solver);
+  const Structure structure = scene ? *scene : reports::read_design_input(input);
+  out.outcome = reports::design_structure(structure, input, req, *solver);
   if (!out.outcome.ok) {
     const std::string& item = out.outcome.failure_item;
     out.message = kMessagePrefix + input + ": " + (item.empty() ? "" : item + ": ") + out.outcome.failure_reason +
@@ -146,8 +146,8 @@ PyDesign run_design(const std::shared_ptr<Structure>& scene, const std::string& 
     Design& d = out.outcome.design;
     if (fractions.empty()) fractions = default_fraction_grid(d);
     const NaiveComparison c = naive_fraction_sweep(d, fractions, settle_options);
-    out.comparison_table = cli::naive_comparison_table(c, settle_options.method);
-    d.info["naive_comparison"] = cli::naive_comparison_json(c, settle_options.method);
+    out.comparison_table = reports::naive_comparison_table(c, settle_options.method);
+    d.info["naive_comparison"] = reports::naive_comparison_json(c, settle_options.method);
   }
   return out;
 }
@@ -191,15 +191,17 @@ everything else raises RuntimeError with it, as the command writes no file.)doc"
            py::arg("path"), "Writes the design file, the one `tensegrity design --out` writes.")
       .def("save_sheet",
            [](const PyDesign& r, const std::filesystem::path& path) {
-             write_text_file_atomically(path.string(), cli::fabrication_sheet_csv(r.design(), r.outcome.rest.lengths));
+             const std::string sheet = reports::fabrication_sheet_csv(r.design(), r.outcome.rest.lengths);
+             write_text_file_atomically(path.string(), sheet);
            },
            py::arg("path"), "Writes the fabrication sheet (CSV), the command's --sheet file.")
       .def("save_cut_list",
            [](const PyDesign& r, const std::filesystem::path& path) {
-             cli::write_cut_list(r.design(), r.outcome.rest.lengths, path.string());
+             reports::write_cut_list(r.design(), r.outcome.rest.lengths, path.string());
            },
            py::arg("path"), "Writes the printable cut list (.svg or .png).")
-      .def("sheet_csv", [](const PyDesign& r) { return cli::fabrication_sheet_csv(r.design(), r.outcome.rest.lengths); },
+      .def("sheet_csv",
+           [](const PyDesign& r) { return reports::fabrication_sheet_csv(r.design(), r.outcome.rest.lengths); },
            "The fabrication sheet's text.")
       .def("to_json", [](const PyDesign& r) { return design_to_json(r.design()).dump(2); },
            "The design file's text.")

@@ -22,9 +22,9 @@ PYBIND11_MODULE(_core, m) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const OptionError& e) {
-      PyErr_SetString(PyExc_ValueError, cli::option_error_line(e).c_str());
+      PyErr_SetString(PyExc_ValueError, reports::option_error_line(e).c_str());
     } catch (const UnknownNameError& e) {
-      PyErr_SetString(PyExc_ValueError, cli::unknown_name_line(e).c_str());
+      PyErr_SetString(PyExc_ValueError, reports::unknown_name_line(e).c_str());
     } catch (const InputError& e) {
       PyErr_SetString(PyExc_ValueError, (std::string(kMessagePrefix) + e.what()).c_str());
     }

@@ -119,7 +119,7 @@ void bind_simulate(py::module_& m) {
             throw InputError("command line", "--width", "must be within 64..8192");
           if (height < kMinPixels || height > kMaxPixels)
             throw InputError("command line", "--height", "must be within 64..8192");
-          cli::RenderOptions options;
+          reports::RenderOptions options;
           options.view = view;
           options.width = width;
           options.height = height;
@@ -141,7 +141,7 @@ void bind_simulate(py::module_& m) {
             for (int k = 0; k < scene.num_elements(); ++k) (*f)(k) = a.at(k);
           }
           py::gil_scoped_release release;
-          cli::render_scene(scene, p, f, options, path);
+          reports::render_scene(scene, p, f, options, path);
         },
         py::arg("scene"), py::arg("positions"), py::arg("forces"), py::arg("path"), py::arg("view"),
         py::arg("width"), py::arg("height"), py::arg("title"));

@@ -92,12 +92,12 @@ PyResult run_solve(const Structure& scene, const std::string& solver_name, doubl
   options.tolerance = tol;
   options.time_limit_s = time_limit;
   options.max_iterations = max_iterations;
-  options.prestress_factor = cli::checked_prestress_factor(prestress_factor);
+  options.prestress_factor = reports::checked_prestress_factor(prestress_factor);
   DriverControls controls;
   controls.skip_if_in_equilibrium = skip_if_in_equilibrium;
   options.verbose = verbose;
   options.backend_options = backend_options;
-  const auto solver = cli::checked_solver(solver_name, options);
+  const auto solver = reports::checked_solver(solver_name, options);
   PyResult out;
   out.scene = std::make_shared<const Structure>(scene);
   out.solver = std::string(solver->name());
@@ -172,10 +172,10 @@ void bind_solve(py::module_& m) {
       .def("save", [](const PyResult& r, const std::filesystem::path& path) { write_solution_file(r.solution(), path.string()); },
            py::arg("path"), "Writes the solution file, byte for byte what `tensegrity solve --out` writes.")
       .def("to_json", [](const PyResult& r) { return solution_to_json(r.solution()).dump(2); })
-      .def("summary", [](const PyResult& r) { return cli::summary_line(*r.scene, r.solver, r.result); },
+      .def("summary", [](const PyResult& r) { return reports::summary_line(*r.scene, r.solver, r.result); },
            "The one-line summary the command line prints on standard error.")
       .def("__repr__", [](const PyResult& r) {
-        return "<tensegrity.Result " + cli::summary_line(*r.scene, r.solver, r.result) + ">";
+        return "<tensegrity.Result " + reports::summary_line(*r.scene, r.solver, r.result) + ">";
       });
 
   m.def("solvers", &solver_names, "Names of the backends, as `tensegrity solvers` lists them.");
@@ -199,9 +199,9 @@ void bind_solve(py::module_& m) {
           o.tolerance = tol;
           o.time_limit_s = time_limit;
           o.max_iterations = max_iterations;
-          o.prestress_factor = cli::checked_prestress_factor(prestress_factor);
+          o.prestress_factor = reports::checked_prestress_factor(prestress_factor);
           o.backend_options = options;
-          return std::string(cli::checked_solver(solver, o)->name());
+          return std::string(reports::checked_solver(solver, o)->name());
         },
         py::arg("solver"), py::arg("tol"), py::arg("time_limit"), py::arg("max_iterations"),
         py::arg("prestress_factor"), py::arg("options"));
