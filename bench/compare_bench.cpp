@@ -10,7 +10,7 @@
 // model/character.hpp, nodes moved by seeded noise of 2 % of the strut length)
 // and tower-layers-<L> (see scaling_tower), and gravity-towers/<scene>/<backend>
 // for the gravity tower family tower-<L>-gravity-noise1 (58 L elements,
-// bench/gravity_tower_family.hpp): each built on its first benchmark, outside
+// scenes/gravity_tower_family.hpp): each built on its first benchmark, outside
 // the timing, by an alternating-gn equilibrium solve plus 1 % node noise.
 // Scenes are built once, before any timing; success is checked after the
 // timing loop by the independent model/verify at --success_tol.
@@ -309,7 +309,7 @@ const Structure* gravity_tower_scene(int layers) {
 void register_all() {
   for (int layers : config().gravity_tower_layers)
     for (const std::string& backend : solver_names()) {
-      const std::string name = "gravity-towers/" + bench::gravity_tower_name(layers) + "/" + backend;
+      const std::string name = "gravity-towers/" + scenes::gravity_tower_name(layers) + "/" + backend;
       benchmark::RegisterBenchmark(name.c_str(),
                                    [backend, layers](benchmark::State& st) {
                                      const Structure* scene = gravity_tower_scene(layers);

@@ -5,9 +5,11 @@
 //
 // Tower family, L layers: `generate tower --layers L --struts-per-layer 8
 // --cables 50L --gravity`, solved to equilibrium by alternating-gn, then 1 %
-// node noise (bench/gravity_tower_family.hpp, shared with compare_bench). The 80/500 gravity tower: data/bench/tower-80s-500c-gravity with
-// 2 % noise (scenes::perturbed_tower). Counters: geometry change (m), converged
-// (verified), iterations, Newton iterations (eq5-newton), elements.
+// node noise (scenes/gravity_tower_family.hpp, solved as compare_bench does
+// by bench/gravity_tower_family.hpp). The 80/500 gravity tower:
+// data/bench/tower-80s-500c-gravity with 2 % noise (scenes::perturbed_tower).
+// Counters: geometry change (m), converged (verified), iterations, Newton
+// iterations (eq5-newton), elements.
 // Run with
 //   build/bench/eq5_newton_bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
 //   build/bench/eq5_newton_bench --tower_layers=10,20,40,80,160 --benchmark_filter='eq5-newton|alternating-gn/'
@@ -48,7 +50,7 @@ std::vector<int>& tower_layers() {
   return layers;
 }
 
-// The L-layer member of the gravity tower family (bench/gravity_tower_family.hpp).
+// The L-layer member of the gravity tower family (scenes/gravity_tower_family.hpp).
 Structure family_tower(int layers) {
   try {
     return bench::gravity_tower(layers, kTimeLimit);
