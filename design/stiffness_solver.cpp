@@ -11,6 +11,7 @@
 #include "formulations/equilibrium.hpp"
 #include "kernels/ipopt_solve.hpp"
 #include "kernels/sparse_nlp.hpp"
+#include "model/json_text.hpp"
 #include "model/verify.hpp"
 
 namespace tensegrity {
@@ -262,7 +263,7 @@ StiffnessResult solve_stiffness_qp(const Structure& s, const Eigen::Matrix3Xd& p
                                                : run.message;
   } else if (!v.ok || violation > 1e-9 * scale) {
     r.status = Status::NumericalError;
-    r.message = "the QP solution does not verify (relative residual " + std::to_string(v.relative_residual) +
+    r.message = "the QP solution does not verify (relative residual " + message_number(v.relative_residual) +
                 (v.problems.empty() ? std::string() : ", " + v.problems.front()) + ")";
   } else {
     r.status = Status::Converged;

@@ -30,7 +30,7 @@ namespace tensegrity {
 
 // kappa: the default bound on the mean cable force under gravity, in units of
 // the part's weight (docs/THEORY-force-scale.md says how it was chosen).
-inline constexpr double kDefaultPrestressFactor = 5.0;
+inline constexpr double kDefaultPrestressFactor = 2.0;
 
 struct ForceScale {
   double reference_force = 1.0;  // F0 (N)

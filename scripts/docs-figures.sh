@@ -973,16 +973,17 @@ EOF2
 
 prestress_factor() {
   step "prestress-factor.md: Eq. 5's cap kappa on the gravity scenes and characters"
-  local kappas="1 2 5 10 20" scenes=()
+  local kappas="1 2 3 5 10" scenes=()
   for f in data/reference/*-gravity.scene.json; do scenes+=("$f"); done
-  for c in duck puppy scorpion; do
-    "$tg" build "data/characters/$c.character.json" --out "$work/$c.scene.json" >/dev/null
-    scenes+=("$work/$c.scene.json")
+  for c in duck puppy scorpion minimal/duck minimal/scorpion; do
+    "$tg" build "data/characters/$c.character.json" --out "$work/${c//\//-}.scene.json" >/dev/null
+    scenes+=("$work/${c//\//-}.scene.json")
   done
   header "$out/prestress-factor.md" "The prestress cap kappa under gravity" \
     "tensegrity solve SCENE --solver ipopt|alternating-gn --prestress-factor K --time-limit $limit"
   {
-    echo "Geometry change (m) of each answer; \`-\` where the solve did not converge (its status in"
+    echo "Geometry change (m) of each answer, then its iterations and the solver's own seconds in"
+    echo "brackets (one run, on a shared machine); \`-\` where the solve did not converge (its status in"
     echo "brackets). alternating-gn: \`H\` where its free answer lay above the cap and the answer"
     echo "comes from the run held at the cap (docs/THEORY-force-scale.md)."
     echo
@@ -1002,8 +1003,9 @@ details = d.get("details") or {}
 if isinstance(details, list):
     details = details[0] if details else {}
 held = "H" if details.get("held_at_prestress_cap") else ""
+stats = d["stats"]
 if d["status"] == "converged":
-    print(f" {d['stats']['geometry_change']:.4f}{held} |", end="")
+    print(f" {stats['geometry_change']:.4g}{held} ({stats['iterations']}, {stats['seconds']:.2g} s) |", end="")
 else:
     print(f" - ({d['status']}) |", end="")
 EOF2

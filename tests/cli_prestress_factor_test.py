@@ -21,7 +21,7 @@ import tempfile
 
 SCENE = pathlib.Path("data") / "reference" / "prism-7-gravity.scene.json"
 BACKEND = "ipopt"
-KAPPA = "2"  # not the default, so that an ignored option shows
+KAPPA = "5"  # not the default, so that an ignored option shows
 # The geometry change of one solve read back from two files (solution, report)
 # that both print it with 17 significant digits.
 SAME_NUMBER = 1e-12
@@ -30,7 +30,7 @@ SAME_NUMBER = 1e-12
 CLEARLY_DIFFERENT = 0.1
 BAD_VALUES = ["0", "-1", "nan", "inf"]
 BAD_LINE = "tensegrity: command line: --prestress-factor: must be a finite number > 0\n"
-DEFAULT_KAPPA = "5"  # kDefaultPrestressFactor
+DEFAULT_KAPPA = "2"  # kDefaultPrestressFactor
 HELP_WORDS = "kappa: under gravity Eq. 5 caps the mean cable force at kappa times the part's weight"
 
 

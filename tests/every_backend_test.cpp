@@ -119,9 +119,9 @@ TEST_P(EveryBackend, ScaledScenesGiveScaledSolutions) {
     const Structure base = scenes::with_node_noise(make_regular_prism(p), noise, 11u);
     SCOPED_TRACE(gravity ? "under gravity" : "without gravity");
     const auto solver = make_solver(GetParam());
-    // Under gravity a binding cap (kappa = 1) fixes the force level; with the
-    // default (5) it does not bind here, and the answers agree only to 1e-9
-    // (eq5-newton) and 1e-6 (nlopt) with iteration counts that differ.
+    // Under gravity a binding cap (kappa = 1) fixes the force level; where it
+    // does not bind (kappa = 5) the answers agree only to 1e-9 (eq5-newton)
+    // and 1e-6 (nlopt), with iteration counts that differ.
     SolveOptions options;
     options.prestress_factor = 1.0;
     const SolveResult reference = solver->Solve(base, options, DriverControls{false});

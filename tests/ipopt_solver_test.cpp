@@ -326,7 +326,7 @@ TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
   bad.backend_options = {{"prestress", "loose"}};
   EXPECT_THROW(solver.ValidateOptions(bad), InputError);
 
-  // kappa = 1: the cap binds on both prisms (at the default, 5, it binds on neither).
+  // kappa = 1, where the behaviour above was measured: the cap binds on both prisms.
   constexpr double kBindingPrestressFactor = 1.0;
   SolveOptions capped_options;  // the default, named
   capped_options.prestress_factor = kBindingPrestressFactor;

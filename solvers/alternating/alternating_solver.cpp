@@ -20,6 +20,7 @@
 #include "formulations/force_scale.hpp"
 #include "kernels/stress_qp.hpp"
 #include "model/errors.hpp"
+#include "model/json_text.hpp"
 #include "model/verify.hpp"
 #include "solvers/alternating/eq4_measure.hpp"
 #include "kernels/normal_matrix.hpp"
@@ -465,7 +466,7 @@ SolveResult PartSolve::run() {
     if (stalled_) {
       restartable_ = true;
       return finish(Status::Stalled, "stalled: no progress (a local minimum of Eq. 4, or a crawl below epsilon_cvg) at relative residual " +
-                                            std::to_string(p.relative_residual) + crawl_note());
+                                            message_number(p.relative_residual) + crawl_note());
     }
     if (iteration >= iteration_budget_) {
       restartable_ = true;
