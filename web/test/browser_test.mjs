@@ -155,6 +155,40 @@ async function dragNode(page, node, dx, dy, holdMs, startPosition = null, minMov
 
 const DUCK = path.join(path.dirname(new URL(import.meta.url).pathname), '..', '..', 'data', 'characters', 'duck.character.json');
 
+// Suggest link (stiffest) between the two blocks: the table lists the
+// server's ranking in its order with its numbers, and a row shows its ends
+// in the link fields.
+async function suggestLinkStep(page, url) {
+  await page.selectOption('#suggest-want', 'stiff');
+  await setField(page, 'suggest-range', 20);
+  const body = await page.evaluate(() => ({ character: window.tensegrityApp.state.character,
+    a: document.getElementById('link-a-block').value, b: document.getElementById('link-b-block').value,
+    range: 20, stiff: true }));
+  await page.click('#suggest-link');
+  await page.waitForFunction(() => /links between .* ranked \(stiffest\)/.test(document.getElementById('status-line').textContent),
+    null, { timeout: 120000 });
+  const shown = await page.evaluate(() => [...document.querySelectorAll('#suggestions tbody tr')]
+    .map((tr) => [...tr.querySelectorAll('td')].map((td) => td.textContent)));
+  const reply = await fetch(`${url}api/suggest-link`, { method: 'POST', body: JSON.stringify(body) });
+  const ranking = await reply.json();
+  const measured = ranking.candidates.filter((c) => c.measured);
+  check(reply.status === 200 && ranking.format === 'tensegrity-link-suggestions' && measured.length > 0,
+    `the server ranks ${ranking.candidates.length} links between ${body.a} and ${body.b}`);
+  check(shown.length === ranking.candidates.length &&
+    shown.every((row, i) => row[1] === ranking.candidates[i].type && row[2] === ranking.candidates[i].a &&
+      row[3] === ranking.candidates[i].b),
+  `the table lists the ranking in its order (${shown.length} rows)`);
+  const first = ranking.candidates.findIndex((c) => c.measured);
+  check(shown[first][4] === ranking.candidates[first].principal_stiffness[0].toPrecision(4),
+    `the best measured link shows its smallest stiffness ${shown[first][4]}`);
+  await page.click(`#suggestions tbody tr:nth-child(${first + 1}) td:first-child`);
+  const ends = await page.evaluate(() => [document.getElementById('link-type').value,
+    document.getElementById('link-a-block').value, document.getElementById('link-b-block').value]);
+  const link = ranking.candidates[first].link;
+  check(ends[0] === link.type && ends[1] === link.a.block && ends[2] === link.b.block,
+    `a row shows its link's ends: ${ends.join(' ')}`);
+}
+
 async function runTest(binary, screenshot) {
   // The API on a served character, then the app from an empty one.
   const duck = startServer(binary, [DUCK]);
@@ -235,6 +269,7 @@ async function runTest(binary, screenshot) {
     await page.waitForFunction(() => /2 blocks, 1 face links/.test(document.getElementById('status-line').textContent));
     const redone = await page.evaluate(() => window.tensegrityApp.state.character.links.length);
     check(undone === 0 && redone === 1, 'undo removes the link and redo restores it');
+    await suggestLinkStep(page, url);
 
     const before = await view(page);
     await page.click('#solve');
