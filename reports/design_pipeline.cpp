@@ -75,10 +75,6 @@ CableMaterial find_material_impl(const std::string& name, const std::vector<std:
   throw InputError("command line", item, "material '" + name + "' not found (searched " + searched + ")");
 }
 
-// The design's bound on prestress under gravity: mean cable force at most the
-// weight of the part (formulations/force_scale.hpp, kappa).
-constexpr double kDesignPrestressFactor = 1.0;
-
 // Whether the forces respect the prestress cap of every part with weight.
 bool within_prestress_cap(const Structure& scene, const Eigen::VectorXd& forces, const SolveOptions& options) {
   const ForceScale scale = make_force_scale(scene, options.margin_fraction, options.prestress_factor);
@@ -217,11 +213,11 @@ DesignOutcome design_structure(const Structure& scene, const std::string& input,
   }
 
   // Stage 1: form finding, unless the input geometry already stands with a
-  // prestress a cord can be designed for (mean cable force at most the
-  // weight, kDesignPrestressFactor): a near-mechanism may stand only on huge
-  // forces, and then Eq. 5 with that cap moves it a little instead.
-  SolveOptions form_options = options;
-  form_options.prestress_factor = kDesignPrestressFactor;
+  // prestress a cord can be designed for (mean cable force at most kappa
+  // times the weight, the cap of `solve`, so that a design fits the geometry
+  // `solve` returns): a near-mechanism may stand only on huge forces, and
+  // then Eq. 5 with that cap moves it a little instead.
+  const SolveOptions& form_options = options;
   SolveResult ff = solve_forces_only(scene, form_options);
   std::string form_solver = "none (already in equilibrium)";
   if (ff.status != Status::Converged || !within_prestress_cap(scene, ff.forces, form_options)) {
