@@ -77,8 +77,7 @@ CableMaterial find_material_impl(const std::string& name, const std::vector<std:
 
 // Whether the forces respect the prestress cap of every part with weight.
 bool within_prestress_cap(const Structure& scene, const Eigen::VectorXd& forces, const SolveOptions& options) {
-  const ForceScale scale = make_force_scale(scene, options.margin_fraction, options.prestress_factor);
-  return !scale.has_prestress_cap() || scale.normalisation_row.dot(forces) <= scale.prestress_cap;
+  return !exceeds_prestress_cap(make_force_scale(scene, options.margin_fraction, options.prestress_factor), forces);
 }
 
 // "elements[E] (cable of block B)": the element as a message names it.
