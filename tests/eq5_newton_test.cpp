@@ -42,7 +42,7 @@ Eigen::VectorXd random_point(ScaledEq5& p, const MinimalGeometryChangeNlp& nlp, 
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   Eigen::VectorXd sigma(nlp.num_forces());
   for (int e = 0; e < nlp.num_forces(); ++e)
-    sigma[e] = p.force_signs()[e] * nlp.force_scale().reference_force * (0.5 + std::abs(u(rng)));
+    sigma[e] = p.bound_signs()[e] * nlp.force_scale().reference_force * (0.5 + std::abs(u(rng)));
   Eigen::VectorXd y = p.to_scaled(nlp.initial_point(sigma));
   for (int i = 0; i < nlp.num_positions(); ++i) y[i] += 0.05 * u(rng);
   return y;
@@ -55,11 +55,17 @@ double relative_error(const Dense& analytic, const Dense& fd) {
 TEST(ScaledEq5, DerivativesMatchFiniteDifferences) {
   std::mt19937 rng(77u);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (const Structure& s : derivative_scenes()) {
-    SCOPED_TRACE(s.name);
-    MinimalGeometryChangeNlp nlp(s, make_force_scale(s));
+  for (const Structure& s : derivative_scenes()) for (const PrestressRow row : {PrestressRow::Equal, PrestressRow::Cap}) {
+    SCOPED_TRACE(s.name + (row == PrestressRow::Cap ? " prestress=cap" : " prestress=equal"));
+    MinimalGeometryChangeNlp nlp(s, make_force_scale(s), row);
     ScaledEq5 p(nlp);
+    // Under gravity the cap row's inequality is an equality with one more,
+    // bounded, variable: its slack.
+    const bool slack = s.has_gravity() && row == PrestressRow::Cap;
+    EXPECT_EQ(p.has_cap_slack(), slack);
     const int n = p.num_variables(), mc = p.num_constraints();
+    EXPECT_EQ(n, nlp.num_variables() + (slack ? 1 : 0));
+    EXPECT_EQ(p.num_bounded(), nlp.num_forces() + (slack ? 1 : 0));
     const Eigen::VectorXd y = random_point(p, nlp, rng);
     Eigen::VectorXd lambda(mc);
     for (int r = 0; r < mc; ++r) lambda[r] = u(rng);
@@ -91,15 +97,20 @@ TEST(ScaledEq5, DerivativesMatchFiniteDifferences) {
     // Upper triangle empty: the Hessian is stored as its lower triangle.
     EXPECT_EQ(Dense(H_lower.triangularView<Eigen::StrictlyUpper>()).cwiseAbs().maxCoeff(), 0.0);
 
-    // The constraint rows are f / F0 and (c^T sigma - t) / F0: zero at an
-    // equilibrium with the force level t.
+    // The constraint rows are f / F0 and (c^T sigma - t) / F0 (+ the slack):
+    // zero at an equilibrium with the force level t (or below the cap t).
     Eigen::VectorXd c;
     p.constraints(y, c);
     const Eigen::VectorXd z = p.to_si(y);
-    EXPECT_NEAR(c[mc - 1] * nlp.force_scale().reference_force,
-                nlp.force_scale().normalisation_row.dot(nlp.forces(z)) -
-                    (s.has_gravity() ? nlp.force_scale().prestress_cap : nlp.force_scale().normalisation_target),
-                1e-9 * nlp.force_scale().reference_force * nlp.num_forces());
+    const double force = nlp.force_scale().reference_force;
+    const double cable_sum = nlp.force_scale().normalisation_row.dot(nlp.forces(z));
+    const double level = s.has_gravity() ? nlp.force_scale().prestress_cap : nlp.force_scale().normalisation_target;
+    const double tolerance = 1e-9 * force * nlp.num_forces();
+    EXPECT_NEAR(c[mc - 1] * force, cable_sum - level + (slack ? y[n - 1] * force : 0.0), tolerance);
+    // to_scaled starts the slack where the cap row holds: what the cap leaves.
+    if (slack) {
+      EXPECT_NEAR(y[n - 1] * force, level - cable_sum, tolerance);
+    }
   }
 }
 

@@ -59,6 +59,7 @@ Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
       reader.number("optimality_tolerance", o.optimality_tolerance, ValueRange::open(0.0, 1.0));
   o.proximal_weight = reader.number("proximal_weight", o.proximal_weight, ValueRange::open(0.0, 1.0));
   o.predictor_corrector = reader.choice("barrier", "mehrotra", {"mehrotra", "monotone"}) == "mehrotra";
+  o.prestress_cap = reader.choice("prestress", "cap", {"cap", "equal"}) == "cap";
   reader.reject_unknown();
   return o;
 }
@@ -78,7 +79,7 @@ bool Eq5NewtonOptions::IsValid(std::string* why) const {
 }
 
 nlohmann::json Eq5NewtonDetails::to_json() const {
-  return {{"start_iterations", start_iterations},
+  nlohmann::json j = {{"start_iterations", start_iterations},
           {"start_geometry_change", start_geometry_change},
           {"polish", polish},
           {"newton_iterations", newton_iterations},
@@ -88,6 +89,8 @@ nlohmann::json Eq5NewtonDetails::to_json() const {
           {"dual_infeasibility", dual_infeasibility},
           {"constraint_violation", constraint_violation},
           {"complementarity", complementarity}};
+  if (prestress_cap_slack >= 0.0) j["prestress_cap_slack"] = prestress_cap_slack;
+  return j;
 }
 
 SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5NewtonOptions& newton) const {
@@ -121,7 +124,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
 
   // 2. Newton on Eq. 5's KKT conditions from there.
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
-  MinimalGeometryChangeNlp nlp(part, scale);
+  MinimalGeometryChangeNlp nlp(part, scale, newton.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal);
   ScaledEq5 problem(nlp);
   Eigen::VectorXd z0(nlp.num_variables());
   z0.head(nlp.num_positions()) = nlp.equilibrium().free_nodes().gather(start.positions);
@@ -179,6 +182,8 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     if (static_cast<int>(recorder.trace().size()) > start_records) record_start_again();
     return finish_with_start("the Newton polish failed verification and was not kept");
   }
+  if (problem.has_cap_slack())
+    details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(sigma));
   SolveResult result;
   result.status = Status::Converged;
   result.message = "local optimum of Eq. 5: " + outcome.message + " after " + std::to_string(outcome.iterations) +

@@ -9,7 +9,8 @@
 //   2. A primal-dual interior-point Newton method (interior_newton.hpp) on the
 //      dimensionless Eq. 5 (scaled_eq5.hpp) starts from that equilibrium: the
 //      objective still measures the change from the scene, and under gravity
-//      the force level moves to Eq. 5's kappa n_c W.
+//      the mean cable force is at most Eq. 5's kappa n_c W (prestress=cap,
+//      a bound with its own slack) or held there (prestress=equal).
 //   3. The Newton answer is kept when its KKT test passed and model/verify
 //      accepts it; otherwise the answer is alternating-gn's verified
 //      equilibrium, and the details say why the polish was not kept.
@@ -18,7 +19,9 @@
 // 200), initial_barrier (mu at the start, (0, 1), default 1e-6),
 // optimality_tolerance (dual infeasibility and complementarity, (0, 1),
 // default 1e-10), proximal_weight (rho on the forces, (0, 1), default 1e-8),
-// barrier (mehrotra | monotone: the barrier parameter's rule, default mehrotra).
+// barrier (mehrotra | monotone: the barrier parameter's rule, default mehrotra),
+// prestress (cap | equal: under gravity the cable-sum row bounded above by
+// kappa n_c W, or held at it; default cap, as the other backends).
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -34,6 +37,7 @@ struct Eq5NewtonOptions {
   double optimality_tolerance = 1e-10;
   double proximal_weight = 1e-8;
   bool predictor_corrector = true;
+  bool prestress_cap = true;  // false: the mean cable force held at the cap (prestress=equal)
 
   static Eq5NewtonOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
@@ -55,6 +59,9 @@ struct Eq5NewtonDetails : SolverDetails {
   double dual_infeasibility = 0;     // dimensionless KKT residuals at the last Newton point
   double constraint_violation = 0;
   double complementarity = 0;
+  // Under gravity with prestress=cap: kappa n_c W - c^T sigma at the answer
+  // (N; 0 when the cap binds), negative when not applicable.
+  double prestress_cap_slack = -1.0;
   nlohmann::json to_json() const override;
 };
 

@@ -1,12 +1,12 @@
 #include "solvers/eq5_newton/interior_newton.hpp"
 
-#include <Eigen/OrderingMethods>
-#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <utility>
 #include <vector>
+
+#include "kernels/pattern_ldlt.hpp"
 
 namespace tensegrity {
 namespace {
@@ -75,7 +75,7 @@ class KktSystem {
     hessian_slot_.assign(slot.begin(), slot.begin() + nh);
     jacobian_slot_.assign(slot.begin() + nh, slot.begin() + nh + nj);
     diagonal_slot_.assign(slot.begin() + nh + nj, slot.end());
-    ldlt_.analyzePattern(matrix_);
+    ldlt_.analyze(matrix_);
   }
 
   // Writes and factorizes the matrix; true when it factorized with inertia
@@ -91,8 +91,7 @@ class KktSystem {
     for (int i = 0; i < n_; ++i) values[diagonal_slot_[i]] += delta_w;
     for (int e = 0; e < n_ - nq_; ++e) values[diagonal_slot_[nq_ + e]] += force_diagonal[e];
     for (int i = 0; i < mc_; ++i) values[diagonal_slot_[n_ + i]] -= kDualRegularisation;
-    ldlt_.factorize(matrix_);
-    if (ldlt_.info() != Eigen::Success) return false;
+    if (!ldlt_.factorize_values(values)) return false;
     const Eigen::VectorXd& D = ldlt_.vectorD();
     if (!D.allFinite()) return false;
     int positive = 0, negative = 0;
@@ -120,7 +119,7 @@ class KktSystem {
   int n_, mc_, nq_;
   Eigen::SparseMatrix<double> matrix_;
   std::vector<int> hessian_slot_, jacobian_slot_, diagonal_slot_;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt_;
+  PatternLdlt ldlt_;  // the symbolic work of each factorization done once
   Eigen::VectorXd residual_;
 };
 
@@ -151,16 +150,17 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   const auto start = std::chrono::steady_clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   const int n = problem.num_variables(), mc = problem.num_constraints(), nq = problem.num_positions();
-  const int m = problem.num_forces();
-  const Eigen::VectorXd& S = problem.force_signs();
+  const int m = problem.num_bounded();  // the bounded tail of y: the forces, then the cap's slack
+  const Eigen::VectorXd& S = problem.bound_signs();
+  const Eigen::VectorXd& margins = problem.bound_margins();
   InteriorNewtonOutcome out;
 
   // The start, with every force strictly inside its bound.
   Eigen::VectorXd y = y0;
   const double min_slack = std::max(kSmallestStartSlack, kStartSlackShare * problem.scaled_margin());
   for (int e = 0; e < m; ++e) {
-    const double d = S[e] * y[nq + e] - problem.scaled_margin();
-    if (!(d >= min_slack)) y[nq + e] = S[e] * (problem.scaled_margin() + min_slack);
+    const double d = S[e] * y[nq + e] - margins[e];
+    if (!(d >= min_slack)) y[nq + e] = S[e] * (margins[e] + min_slack);
   }
   const double mu_min = settings.optimality_tolerance / (kBarrierTolerance + 1.0);
   double mu = std::max(settings.initial_barrier, mu_min);
@@ -259,72 +259,85 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       mu = std::clamp(mu_now * std::pow(mu_affine / mu_now, 3.0), mu_min, mu_now);
       corrector = ds.cwiseProduct(dv_affine);
     }
-    rhs.head(n) = -g;
-    rhs.segment(nq, m) += S.cwiseProduct((mu - corrector.array()).matrix().cwiseQuotient(here.d));
-    rhs.tail(mc) = -here.c;
-    kkt.solve(rhs, solution);
-    if (!solution.allFinite()) {
-      out.status = Status::NumericalError;
-      out.message = "the Newton step is not finite";
-      return out;
-    }
-    dy = solution.head(n);
-    lambda_plus = solution.tail(mc);
-    dv = (mu - corrector.array()).matrix().cwiseQuotient(here.d) - v -
-         v.cwiseQuotient(here.d).cwiseProduct(S.cwiseProduct(dy.tail(m)));
-
-    // Fraction to the boundary, for the forces and for their multipliers.
-    const double tau = std::max(kSmallestFractionToBoundary, 1.0 - mu);
-    double alpha_max = 1.0, alpha_v = 1.0;
-    for (int e = 0; e < m; ++e) {
-      const double dd = S[e] * dy[nq + e];
-      if (dd < 0.0) alpha_max = std::min(alpha_max, -tau * here.d[e] / dd);
-      if (dv[e] < 0.0) alpha_v = std::min(alpha_v, -tau * v[e] / dv[e]);
-    }
-
-    // Filter line search on (theta, phi_mu) = (|c|_1, phi - mu sum log d).
-    const double theta = here.infeasibility, phi = here.objective + mu * here.barrier;
-    const double slope = g.dot(dy) - mu * S.cwiseQuotient(here.d).dot(dy.tail(m));
-    if (mu != filter_mu) filter.clear(), filter_mu = mu;
-    bool objective_step = false;
-    auto acceptable = [&](const MeritPoint& t, double a) {
-      if (!t.inside) return false;
-      const double theta_t = t.infeasibility, phi_t = t.objective + mu * t.barrier;
-      if (!std::isfinite(phi_t) || theta_t > theta_max) return false;
-      for (const auto& [theta_f, phi_f] : filter)
-        if (theta_t >= theta_f && phi_t >= phi_f) return false;
-      objective_step = theta <= theta_min && slope < 0.0 &&
-                       a * std::pow(-slope, kSwitchingObjectiveExponent) >
-                           std::pow(theta, kSwitchingInfeasibilityExponent);
-      if (objective_step) return phi_t <= phi + kArmijo * a * slope;
-      return theta_t <= (1.0 - kFilterInfeasibilityMargin) * theta || phi_t <= phi - kFilterObjectiveMargin * theta;
-    };
-    double alpha = alpha_max;
-    bool accepted = false;
-    for (int backtrack = 0; backtrack < kMaxBacktracks && alpha >= kSmallestStep; ++backtrack, alpha *= 0.5) {
-      y_trial = y + alpha * dy;
-      evaluate(problem, y_trial, trial);
-      if (acceptable(trial, alpha)) {
-        accepted = true;
-        break;
-      }
-      if (backtrack == 0 && trial.inside) {
-        // Second-order correction: back onto the constraints in the W metric.
-        rhs_soc.setZero();
-        rhs_soc.tail(mc) = -trial.c;
-        kkt.solve(rhs_soc, soc);
-        y_soc = y_trial + soc.head(n);
-        evaluate(problem, y_soc, corrected);
-        const bool keeps_fraction =
-            corrected.inside && (corrected.d.array() >= (1.0 - tau) * here.d.array()).all();
-        if (keeps_fraction && acceptable(corrected, alpha)) {
-          y_trial = y_soc;
-          std::swap(trial, corrected);
-          ++out.second_order_corrections;
-          accepted = true;
-          break;
+    // Filter line search on (theta, phi_mu) = (|c|_1, phi - mu sum log d)
+    // along dy from alpha_max; the accepted point in y_trial and `trial`.
+    auto filter_line_search = [&](double alpha_max, double tau, double theta, double phi, double slope,
+                                  bool& objective_step, double& alpha) {
+      auto acceptable = [&](const MeritPoint& t, double a) {
+        if (!t.inside) return false;
+        const double theta_t = t.infeasibility, phi_t = t.objective + mu * t.barrier;
+        if (!std::isfinite(phi_t) || theta_t > theta_max) return false;
+        for (const auto& [theta_f, phi_f] : filter)
+          if (theta_t >= theta_f && phi_t >= phi_f) return false;
+        objective_step = theta <= theta_min && slope < 0.0 &&
+                         a * std::pow(-slope, kSwitchingObjectiveExponent) >
+                             std::pow(theta, kSwitchingInfeasibilityExponent);
+        if (objective_step) return phi_t <= phi + kArmijo * a * slope;
+        return theta_t <= (1.0 - kFilterInfeasibilityMargin) * theta ||
+               phi_t <= phi - kFilterObjectiveMargin * theta;
+      };
+      alpha = alpha_max;
+      for (int backtrack = 0; backtrack < kMaxBacktracks && alpha >= kSmallestStep; ++backtrack, alpha *= 0.5) {
+        y_trial = y + alpha * dy;
+        evaluate(problem, y_trial, trial);
+        if (acceptable(trial, alpha)) return true;
+        if (backtrack == 0 && trial.inside) {
+          // Second-order correction: back onto the constraints in the W metric.
+          rhs_soc.setZero();
+          rhs_soc.tail(mc) = -trial.c;
+          kkt.solve(rhs_soc, soc);
+          y_soc = y_trial + soc.head(n);
+          evaluate(problem, y_soc, corrected);
+          const bool keeps_fraction =
+              corrected.inside && (corrected.d.array() >= (1.0 - tau) * here.d.array()).all();
+          if (keeps_fraction && acceptable(corrected, alpha)) {
+            y_trial = y_soc;
+            std::swap(trial, corrected);
+            ++out.second_order_corrections;
+            return true;
+          }
         }
       }
+      return false;
+    };
+
+    // The corrected step, and when its line search fails the plain barrier
+    // step for the same mu: Mehrotra's second-order term can turn the step
+    // away from descent on the barrier objective, the Newton step cannot.
+    double theta = here.infeasibility, phi = 0.0, slope = 0.0, alpha = 0.0, alpha_v = 1.0, tau = 1.0;
+    bool accepted = false, objective_step = false;
+    if (mu != filter_mu) filter.clear(), filter_mu = mu;
+    for (int attempt = 0; attempt < 2 && !accepted; ++attempt) {
+      if (attempt == 1) {
+        if (corrector.isZero(0.0)) break;
+        corrector.setZero();
+      }
+      rhs.head(n) = -g;
+      rhs.segment(nq, m) += S.cwiseProduct((mu - corrector.array()).matrix().cwiseQuotient(here.d));
+      rhs.tail(mc) = -here.c;
+      kkt.solve(rhs, solution);
+      if (!solution.allFinite()) {
+        out.status = Status::NumericalError;
+        out.message = "the Newton step is not finite";
+        return out;
+      }
+      dy = solution.head(n);
+      lambda_plus = solution.tail(mc);
+      dv = (mu - corrector.array()).matrix().cwiseQuotient(here.d) - v -
+           v.cwiseQuotient(here.d).cwiseProduct(S.cwiseProduct(dy.tail(m)));
+
+      // Fraction to the boundary, for the bounded variables and for their multipliers.
+      tau = std::max(kSmallestFractionToBoundary, 1.0 - mu);
+      double alpha_max = 1.0;
+      alpha_v = 1.0;
+      for (int e = 0; e < m; ++e) {
+        const double dd = S[e] * dy[nq + e];
+        if (dd < 0.0) alpha_max = std::min(alpha_max, -tau * here.d[e] / dd);
+        if (dv[e] < 0.0) alpha_v = std::min(alpha_v, -tau * v[e] / dv[e]);
+      }
+      phi = here.objective + mu * here.barrier;
+      slope = g.dot(dy) - mu * S.cwiseQuotient(here.d).dot(dy.tail(m));
+      accepted = filter_line_search(alpha_max, tau, theta, phi, slope, objective_step, alpha);
     }
     if (!accepted) {
       out.status = Status::Stalled;

@@ -29,23 +29,35 @@ Eigen::SparseMatrix<double> sparse_pattern(int num_rows, int num_cols, const std
 ScaledEq5::ScaledEq5(MinimalGeometryChangeNlp& nlp) : nlp_(nlp) {
   nq_ = nlp.num_positions();
   m_ = nlp.num_forces();
-  n_ = nlp.num_variables();
   mc_ = nlp.num_constraints();
+  Eigen::VectorXd row_lower, row_upper;
+  nlp.constraint_bounds(row_lower, row_upper);
+  has_slack_ = mc_ > nq_ && !std::isfinite(row_lower[nq_]) && std::isfinite(row_upper[nq_]);
+  const int nz = nlp.num_variables();
+  n_ = nz + (has_slack_ ? 1 : 0);
   length_ = nlp.length_scale();
   const ForceScale& fs = nlp.force_scale();
   force_ = fs.reference_force;
   margin_ = fs.margin / force_;
   if (fs.has_normalisation()) target_ = fs.normalisation_target / force_;
   if (fs.has_prestress_cap()) target_ = fs.prestress_cap / force_;
-  scale_.resize(n_);
+  scale_.resize(nz);
   scale_.head(nq_).setConstant(length_);
   scale_.tail(m_).setConstant(force_);
-  signs_.resize(m_);
-  for (int e = 0; e < m_; ++e) signs_[e] = std::isfinite(fs.lower[e]) ? 1.0 : -1.0;
+  signs_ = Eigen::VectorXd::Ones(num_bounded());
+  margins_ = Eigen::VectorXd::Zero(num_bounded());
+  for (int e = 0; e < m_; ++e) {
+    signs_[e] = std::isfinite(fs.lower[e]) ? 1.0 : -1.0;
+    margins_[e] = margin_;
+  }
 
   std::vector<int> rows, cols;
   nlp.jacobian_structure(rows, cols);
+  const std::size_t nlp_jacobian_entries = rows.size();
+  if (has_slack_) rows.push_back(nq_), cols.push_back(n_ - 1);
   jacobian_ = sparse_pattern(mc_, n_, rows, cols, 0, jac_slot_);
+  if (has_slack_) slack_jacobian_slot_ = jac_slot_.back(), jac_slot_.pop_back();
+  rows.resize(nlp_jacobian_entries), cols.resize(nlp_jacobian_entries);
   jac_factor_.resize(rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k) jac_factor_[k] = scale_[cols[k]] / force_;
   jac_values_.resize(rows.size());
@@ -57,8 +69,19 @@ ScaledEq5::ScaledEq5(MinimalGeometryChangeNlp& nlp) : nlp_(nlp) {
   hess_values_.resize(rows.size());
 }
 
-Eigen::VectorXd ScaledEq5::to_scaled(const Eigen::VectorXd& z) const { return z.cwiseQuotient(scale_); }
-Eigen::VectorXd ScaledEq5::to_si(const Eigen::VectorXd& y) const { return y.cwiseProduct(scale_); }
+Eigen::VectorXd ScaledEq5::to_scaled(const Eigen::VectorXd& z) const {
+  Eigen::VectorXd y(n_);
+  y.head(z.size()) = z.cwiseQuotient(scale_);
+  if (has_slack_) {
+    nlp_.constraints(z, c_z_);
+    y[n_ - 1] = target_ - c_z_[nq_] / force_;  // what the cap leaves of the cable sum
+  }
+  return y;
+}
+
+Eigen::VectorXd ScaledEq5::to_si(const Eigen::VectorXd& y) const {
+  return y.head(scale_.size()).cwiseProduct(scale_);
+}
 
 double ScaledEq5::objective(const Eigen::VectorXd& y) const {
   z_ = to_si(y);
@@ -68,7 +91,9 @@ double ScaledEq5::objective(const Eigen::VectorXd& y) const {
 void ScaledEq5::gradient(const Eigen::VectorXd& y, Eigen::VectorXd& g) const {
   z_ = to_si(y);
   nlp_.gradient(z_, grad_z_);
-  g = grad_z_.cwiseProduct(scale_);
+  g.resize(n_);
+  g.head(scale_.size()) = grad_z_.cwiseProduct(scale_);
+  if (has_slack_) g[n_ - 1] = 0.0;
 }
 
 void ScaledEq5::constraints(const Eigen::VectorXd& y, Eigen::VectorXd& c) {
@@ -76,6 +101,7 @@ void ScaledEq5::constraints(const Eigen::VectorXd& y, Eigen::VectorXd& c) {
   nlp_.constraints(z_, c_z_);
   c = c_z_ / force_;
   if (mc_ > nq_) c[nq_] -= target_;
+  if (has_slack_) c[nq_] += y[n_ - 1];
 }
 
 const ScaledEq5::SparseMatrix& ScaledEq5::jacobian(const Eigen::VectorXd& y) {
@@ -84,6 +110,7 @@ const ScaledEq5::SparseMatrix& ScaledEq5::jacobian(const Eigen::VectorXd& y) {
   double* values = jacobian_.valuePtr();
   std::fill(values, values + jacobian_.nonZeros(), 0.0);
   for (std::size_t k = 0; k < jac_values_.size(); ++k) values[jac_slot_[k]] += jac_factor_[k] * jac_values_[k];
+  if (has_slack_) values[slack_jacobian_slot_] = 1.0;
   return jacobian_;
 }
 
@@ -98,7 +125,7 @@ const ScaledEq5::SparseMatrix& ScaledEq5::hessian(const Eigen::VectorXd& y, cons
 }
 
 void ScaledEq5::slacks(const Eigen::VectorXd& y, Eigen::VectorXd& d) const {
-  d = signs_.cwiseProduct(y.tail(m_)).array() - margin_;
+  d = signs_.cwiseProduct(y.tail(num_bounded())) - margins_;
 }
 
 }  // namespace tensegrity

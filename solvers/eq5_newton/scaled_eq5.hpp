@@ -2,11 +2,18 @@
 // Eq. 5 (formulations/minimal_geometry_change_nlp.hpp) in dimensionless
 // variables for a Newton method on its KKT conditions:
 //
-//   y = (q / L, sigma / F0)                       (L mean element length, F0 ForceScale)
+//   y = (q / L, sigma / F0 [, s])                 (L mean element length, F0 ForceScale)
 //   phi(y)  = |q - q0|^2 / L^2                    (the NLP's own objective)
-//   c(y)    = (f(q, sigma) / F0, (c^T sigma - t) / F0) = 0
+//   c(y)    = (f(q, sigma) / F0, (c^T sigma - t) / F0 [+ s]) = 0
 //             t = n_c F0 without gravity, kappa n_c W under gravity
 //   d_e(y)  = s_e sigma_e / F0 - margin / F0 >= 0 (s_e = +1 cable, -1 strut)
+//   d_s(y)  = s >= 0
+//
+// The slack s is there when the NLP bounds the cable-sum row only from above
+// (PrestressRow::Cap: c^T sigma <= kappa n_c W under gravity); it turns the
+// inequality into an equality and one more bound, so the Newton method sees
+// bounds on the variables only. The bounded variables are the last
+// num_bounded() ones: the forces, then s.
 //
 // With D = diag(L on q, F0 on sigma) and z = D y the derivatives are the NLP's
 // rescaled: grad_y = D grad_z, J_y = J_z D / F0, and the Hessian of
@@ -31,9 +38,12 @@ class ScaledEq5 {
   int num_constraints() const { return mc_; }
   int num_positions() const { return nq_; }
   int num_forces() const { return m_; }
+  bool has_cap_slack() const { return has_slack_; }
+  int num_bounded() const { return m_ + (has_slack_ ? 1 : 0); }  // the tail of y
 
-  Eigen::VectorXd to_scaled(const Eigen::VectorXd& z) const;  // z = (q, sigma) in m, N
-  Eigen::VectorXd to_si(const Eigen::VectorXd& y) const;
+  // z = (q, sigma) in m, N; the slack, where there is one, from the cap row at z.
+  Eigen::VectorXd to_scaled(const Eigen::VectorXd& z) const;
+  Eigen::VectorXd to_si(const Eigen::VectorXd& y) const;  // (q, sigma): the slack dropped
 
   double objective(const Eigen::VectorXd& y) const;
   void gradient(const Eigen::VectorXd& y, Eigen::VectorXd& g) const;
@@ -44,9 +54,11 @@ class ScaledEq5 {
   // every diagonal entry is present, zero where the problem has none).
   const SparseMatrix& hessian(const Eigen::VectorXd& y, const Eigen::VectorXd& lambda);
 
-  // Per force, s_e (+1 cable, -1 strut) and the scaled margin: d = s .* y_sigma - margin.
-  const Eigen::VectorXd& force_signs() const { return signs_; }
-  double scaled_margin() const { return margin_; }
+  // Per bounded variable (the tail of y) its sign and scaled margin:
+  // d = signs .* y_tail - margins (forces: s_e and margin / F0; the slack: 1 and 0).
+  const Eigen::VectorXd& bound_signs() const { return signs_; }
+  const Eigen::VectorXd& bound_margins() const { return margins_; }
+  double scaled_margin() const { return margin_; }  // the forces' margin / F0
   void slacks(const Eigen::VectorXd& y, Eigen::VectorXd& d) const;
 
   MinimalGeometryChangeNlp& nlp() { return nlp_; }
@@ -54,9 +66,11 @@ class ScaledEq5 {
  private:
   MinimalGeometryChangeNlp& nlp_;
   int nq_ = 0, m_ = 0, n_ = 0, mc_ = 0;
+  bool has_slack_ = false;
+  int slack_jacobian_slot_ = -1;  // the slack's entry (value 1) in the cap row
   double length_ = 1.0, force_ = 1.0, margin_ = 0.0, target_ = 0.0;
-  Eigen::VectorXd scale_;  // D
-  Eigen::VectorXd signs_;
+  Eigen::VectorXd scale_;  // D, on (q, sigma)
+  Eigen::VectorXd signs_, margins_;
   SparseMatrix jacobian_, hessian_;
   // Triplet k of the NLP's Jacobian / Hessian -> value index in the matrix,
   // and the factor that scales it.
