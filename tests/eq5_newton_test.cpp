@@ -218,6 +218,40 @@ TEST(Eq5Newton, KeepsAlternatingGnsEquilibriumWhenThePolishStops) {
   EXPECT_EQ(j.at("start_iterations").get<int>(), newton_details(r).start_iterations);
 }
 
+// Under gravity a capped polish that is not kept is followed by one held at
+// the cap; both counted, and with both stopped the answer is alternating-gn's.
+TEST(Eq5Newton, UnderGravityFallsBackToTheHeldPolish) {
+  const Structure scene = read_scene_file(kReferenceDir + "scenes/prism-6-gravity-noise5-s6.scene.json");
+  ASSERT_TRUE(scene.has_gravity());
+  SolveOptions options;
+  options.backend_options = {{"newton_iterations", "1"}};
+  const SolveResult r = make_solver("eq5-newton")->Solve(scene, options, DriverControls{false});
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  const Eq5NewtonDetails& d = newton_details(r);
+  EXPECT_TRUE(d.prestress_held);
+  EXPECT_EQ(d.newton_iterations, 2);
+  EXPECT_EQ(d.polish, "max_iterations");
+  EXPECT_LT(d.prestress_cap_slack, 0.0);  // no kept answer: not reported
+  EXPECT_EQ(d.to_json().at("prestress_held"), true);
+  EXPECT_NEAR(r.stats.geometry_change, d.start_geometry_change, 1e-15);
+
+  // Held from the start (prestress=equal) there is no second polish; with the
+  // whole budget the capped polish is kept, no farther than the held one.
+  options.backend_options = {{"prestress", "equal"}};
+  const SolveResult held = make_solver("eq5-newton")->Solve(scene, options, DriverControls{false});
+  options.backend_options = {};
+  const SolveResult capped = make_solver("eq5-newton")->Solve(scene, options, DriverControls{false});
+  ASSERT_EQ(held.status, Status::Converged) << held.message;
+  ASSERT_EQ(capped.status, Status::Converged) << capped.message;
+  EXPECT_FALSE(newton_details(held).prestress_held);
+  EXPECT_EQ(newton_details(held).polish, "kept");
+  EXPECT_EQ(newton_details(capped).polish, "kept");
+  EXPECT_GE(newton_details(capped).prestress_cap_slack, 0.0);
+  std::printf("capped %.12g held %.12g cap slack %.3g N\n", capped.stats.geometry_change, held.stats.geometry_change,
+              newton_details(capped).prestress_cap_slack);
+  EXPECT_LE(capped.stats.geometry_change, held.stats.geometry_change * (1.0 + kSameChange));
+}
+
 TEST(Eq5Newton, OptionsAreTypedAndRangeChecked) {
   EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"newton_iterations", "7"}}).newton_iterations, 7);
   EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"initial_barrier", "1e-4"}}).initial_barrier, 1e-4);
@@ -229,6 +263,9 @@ TEST(Eq5Newton, OptionsAreTypedAndRangeChecked) {
   EXPECT_TRUE(Eq5NewtonOptions{}.predictor_corrector);
   EXPECT_FALSE(Eq5NewtonOptions::FromPairs({{"barrier", "monotone"}}).predictor_corrector);
   EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"barrier", "adaptive"}}), OptionError);
+  EXPECT_TRUE(Eq5NewtonOptions{}.prestress_cap);
+  EXPECT_FALSE(Eq5NewtonOptions::FromPairs({{"prestress", "equal"}}).prestress_cap);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"prestress", "free"}}), OptionError);
   EXPECT_TRUE(Eq5NewtonOptions{}.IsValid());
   Eq5NewtonOptions bad;
   bad.initial_barrier = 0.0;

@@ -48,6 +48,77 @@ TracePoint trace_point(const Verification& v, int iteration, double objective) {
   return p;
 }
 
+// One Newton polish from alternating-gn's equilibrium, with its answer
+// verified when the Newton test passed.
+struct PolishRun {
+  InteriorNewtonOutcome outcome;
+  bool cap_slack = false;          // the cap was a bound (with its slack)
+  bool verified_rejected = false;  // the Newton test passed, model/verify did not
+  Eigen::Matrix3Xd positions;
+  Eigen::VectorXd forces;
+  Verification check;
+  double objective = 0.0;
+  bool kept() const { return outcome.status == Status::Converged && !verified_rejected; }
+};
+
+// The polish of Eq. 5 with the cable-sum row `row`; every accepted step is
+// recorded after the records already in `recorder`.
+PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5NewtonOptions& newton,
+                 const ForceScale& scale, PrestressRow row, const SolveResult& start, TraceRecorder& recorder) {
+  MinimalGeometryChangeNlp nlp(part, scale, row);
+  ScaledEq5 problem(nlp);
+  Eigen::VectorXd z0(nlp.num_variables());
+  z0.head(nlp.num_positions()) = nlp.equilibrium().free_nodes().gather(start.positions);
+  z0.tail(nlp.num_forces()) = start.forces;
+
+  // docs/FORMATS.md (Solution file) asks |f_i| <= tolerance * load scale (the largest free-node
+  // weight under gravity, else max |sigma| >= F0); the Newton test bounds
+  // |f / F0|_inf, a tenth of that for the three components of a node.
+  const double max_free_weight = part.max_free_node_weight();
+  const double load_over_force =
+      max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
+  InteriorNewtonSettings settings;
+  settings.max_iterations = newton.newton_iterations;
+  settings.optimality_tolerance = newton.optimality_tolerance;
+  settings.constraint_tolerance = 0.1 * options.tolerance * load_over_force / std::sqrt(3.0);
+  settings.initial_barrier = newton.initial_barrier;
+  settings.proximal_weight = newton.proximal_weight;
+  settings.predictor_corrector = newton.predictor_corrector;
+  settings.time_limit_s = std::max(0.0, options.time_limit_s - recorder.seconds());
+
+  PolishRun run;
+  run.cap_slack = problem.has_cap_slack();
+  auto positions_and_forces = [&](const Eigen::VectorXd& y) {
+    const Eigen::VectorXd z = problem.to_si(y);
+    run.positions = nlp.positions(z);
+    run.forces = nlp.forces(z);
+  };
+  const int first_record = static_cast<int>(recorder.trace().size()) - 1;
+  run.outcome =
+      solve_interior_newton(problem, problem.to_scaled(z0), settings, [&](int iteration, const Eigen::VectorXd& y) {
+        positions_and_forces(y);
+        const Verification v = verify(part, run.positions, run.forces, options.tolerance);
+        recorder.record(trace_point(v, first_record + iteration, problem.objective(y)));
+      });
+  if (run.outcome.status != Status::Converged) return run;
+  positions_and_forces(run.outcome.y);
+  run.check = verify(part, run.positions, run.forces, options.tolerance);
+  run.verified_rejected = !run.check.ok;
+  run.objective = problem.objective(run.outcome.y);
+  return run;
+}
+
+// Counts summed over the polishes; the KKT residuals are the last one's.
+void add_counts(const InteriorNewtonOutcome& outcome, Eq5NewtonDetails& details) {
+  details.newton_iterations += outcome.iterations;
+  details.factorizations += outcome.factorizations;
+  details.inertia_corrections += outcome.inertia_corrections;
+  details.second_order_corrections += outcome.second_order_corrections;
+  details.dual_infeasibility = outcome.dual_infeasibility;
+  details.constraint_violation = outcome.constraint_violation;
+  details.complementarity = outcome.complementarity;
+}
+
 }  // namespace
 
 Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
@@ -90,6 +161,7 @@ nlohmann::json Eq5NewtonDetails::to_json() const {
           {"constraint_violation", constraint_violation},
           {"complementarity", complementarity}};
   if (prestress_cap_slack >= 0.0) j["prestress_cap_slack"] = prestress_cap_slack;
+  if (prestress_held) j["prestress_held"] = true;
   return j;
 }
 
@@ -122,83 +194,47 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   };
   if (start.status != Status::Converged || !start_check.ok) return finish_with_start("no Newton polish");
 
-  // 2. Newton on Eq. 5's KKT conditions from there.
+  // 2. Newton on Eq. 5's KKT conditions from there. Under gravity with
+  // prestress=cap, when the polish with the cap as a bound is not kept, a
+  // second one holds the mean cable force at the cap (a point of the capped
+  // problem too), as ipopt's prestress=cap also keeps the held optimum.
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
-  MinimalGeometryChangeNlp nlp(part, scale, newton.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal);
-  ScaledEq5 problem(nlp);
-  Eigen::VectorXd z0(nlp.num_variables());
-  z0.head(nlp.num_positions()) = nlp.equilibrium().free_nodes().gather(start.positions);
-  z0.tail(nlp.num_forces()) = start.forces;
-
-  // docs/FORMATS.md (Solution file) asks |f_i| <= tolerance * load scale (the largest free-node
-  // weight under gravity, else max |sigma| >= F0); the Newton test bounds
-  // |f / F0|_inf, a tenth of that for the three components of a node.
-  const double max_free_weight = part.max_free_node_weight();
-  const double load_over_force =
-      max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
-  InteriorNewtonSettings settings;
-  settings.max_iterations = newton.newton_iterations;
-  settings.optimality_tolerance = newton.optimality_tolerance;
-  settings.constraint_tolerance = 0.1 * options.tolerance * load_over_force / std::sqrt(3.0);
-  settings.initial_barrier = newton.initial_barrier;
-  settings.proximal_weight = newton.proximal_weight;
-  settings.predictor_corrector = newton.predictor_corrector;
-  settings.time_limit_s = std::max(0.0, options.time_limit_s - recorder.seconds());
-
-  auto positions_and_forces = [&](const Eigen::VectorXd& y, Eigen::Matrix3Xd& x, Eigen::VectorXd& sigma) {
-    const Eigen::VectorXd z = problem.to_si(y);
-    x = nlp.positions(z);
-    sigma = nlp.forces(z);
-  };
-  Eigen::Matrix3Xd x;
-  Eigen::VectorXd sigma;
-  const InteriorNewtonOutcome outcome =
-      solve_interior_newton(problem, problem.to_scaled(z0), settings, [&](int iteration, const Eigen::VectorXd& y) {
-        positions_and_forces(y, x, sigma);
-        const Verification v = verify(part, x, sigma, options.tolerance);
-        recorder.record(trace_point(v, start_records - 1 + iteration, problem.objective(y)));
-      });
-  details->newton_iterations = outcome.iterations;
-  details->factorizations = outcome.factorizations;
-  details->inertia_corrections = outcome.inertia_corrections;
-  details->second_order_corrections = outcome.second_order_corrections;
-  details->dual_infeasibility = outcome.dual_infeasibility;
-  details->constraint_violation = outcome.constraint_violation;
-  details->complementarity = outcome.complementarity;
-  details->polish = polish_name(outcome.status);
+  PolishRun run = polish(part, options, newton, scale, newton.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal,
+                         start, recorder);
+  add_counts(run.outcome, *details);
+  if (!run.kept() && run.cap_slack) {
+    run = polish(part, options, newton, scale, PrestressRow::Equal, start, recorder);
+    add_counts(run.outcome, *details);
+    details->prestress_held = true;
+  }
+  details->polish = run.verified_rejected ? "rejected_by_verification" : polish_name(run.outcome.status);
 
   // 3. Keep the Newton answer only when it is a verified KKT point.
-  auto record_start_again = [&] {
-    recorder.record(trace_point(start_check, static_cast<int>(recorder.trace().size()), 0.0));
-  };
-  if (outcome.status != Status::Converged) {
-    if (static_cast<int>(recorder.trace().size()) > start_records) record_start_again();
-    return finish_with_start("the Newton polish stopped (" + outcome.message + ") and was not kept");
+  if (!run.kept()) {
+    if (static_cast<int>(recorder.trace().size()) > start_records)
+      recorder.record(trace_point(start_check, static_cast<int>(recorder.trace().size()), 0.0));
+    return finish_with_start(run.verified_rejected
+                                 ? "the Newton polish failed verification and was not kept"
+                                 : "the Newton polish stopped (" + run.outcome.message + ") and was not kept");
   }
-  positions_and_forces(outcome.y, x, sigma);
-  const Verification v = verify(part, x, sigma, options.tolerance);
-  if (!v.ok) {
-    details->polish = "rejected_by_verification";
-    if (static_cast<int>(recorder.trace().size()) > start_records) record_start_again();
-    return finish_with_start("the Newton polish failed verification and was not kept");
-  }
-  if (problem.has_cap_slack())
-    details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(sigma));
+  if (run.cap_slack)
+    details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
   SolveResult result;
   result.status = Status::Converged;
-  result.message = "local optimum of Eq. 5: " + outcome.message + " after " + std::to_string(outcome.iterations) +
+  result.message = "local optimum of Eq. 5" + std::string(details->prestress_held ? " held at the prestress cap" : "") +
+                   ": " + run.outcome.message + " after " + std::to_string(details->newton_iterations) +
                    " Newton iterations from alternating-gn's equilibrium (" +
                    std::to_string(details->start_iterations) + " iterations)";
-  result.positions = x;
-  result.forces = sigma;
+  result.positions = run.positions;
+  result.forces = run.forces;
   if (static_cast<int>(recorder.trace().size()) == start_records)
-    recorder.record(trace_point(v, start_records, problem.objective(outcome.y)));
+    recorder.record(trace_point(run.check, start_records, run.objective));
   result.trace = std::move(recorder.trace());
   result.stats.iterations = static_cast<int>(result.trace.size()) - 1;
   result.stats.seconds = recorder.seconds();
-  result.stats.residual = v.residual;
-  result.stats.relative_residual = v.relative_residual;
-  result.stats.geometry_change = v.geometry_change;
+  result.stats.residual = run.check.residual;
+  result.stats.relative_residual = run.check.relative_residual;
+  result.stats.geometry_change = run.check.geometry_change;
   result.details = {details};
   return result;
 }

@@ -10,7 +10,8 @@
 //      dimensionless Eq. 5 (scaled_eq5.hpp) starts from that equilibrium: the
 //      objective still measures the change from the scene, and under gravity
 //      the mean cable force is at most Eq. 5's kappa n_c W (prestress=cap,
-//      a bound with its own slack) or held there (prestress=equal).
+//      a bound with its own slack; when that polish is not kept, a second one
+//      holds it there) or held there (prestress=equal).
 //   3. The Newton answer is kept when its KKT test passed and model/verify
 //      accepts it; otherwise the answer is alternating-gn's verified
 //      equilibrium, and the details say why the polish was not kept.
@@ -62,6 +63,9 @@ struct Eq5NewtonDetails : SolverDetails {
   // Under gravity with prestress=cap: kappa n_c W - c^T sigma at the answer
   // (N; 0 when the cap binds), negative when not applicable.
   double prestress_cap_slack = -1.0;
+  // With prestress=cap: the polish with the cap as a bound was not kept, and a
+  // second one held the mean cable force at the cap (the counts above sum both).
+  bool prestress_held = false;
   nlohmann::json to_json() const override;
 };
 
