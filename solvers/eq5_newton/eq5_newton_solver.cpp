@@ -17,6 +17,10 @@ namespace tensegrity {
 namespace {
 
 constexpr int kLargestNewtonIterations = 100000;
+// A capped polish that ends with a KKT error below this (dimensionless) came
+// close: the held one is tried next. One that ends far off is not retried, so
+// a hopeless polish on a large scene costs its budget once.
+constexpr double kCameCloseKktError = 1e-6;
 
 std::string polish_name(Status s) {
   switch (s) {
@@ -108,6 +112,11 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   return run;
 }
 
+bool came_close(const InteriorNewtonOutcome& outcome) {
+  return std::max({outcome.dual_infeasibility, outcome.constraint_violation, outcome.complementarity}) <
+         kCameCloseKktError;
+}
+
 // Counts summed over the polishes; the KKT residuals are the last one's.
 void add_counts(const InteriorNewtonOutcome& outcome, Eq5NewtonDetails& details) {
   details.newton_iterations += outcome.iterations;
@@ -195,14 +204,15 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   if (start.status != Status::Converged || !start_check.ok) return finish_with_start("no Newton polish");
 
   // 2. Newton on Eq. 5's KKT conditions from there. Under gravity with
-  // prestress=cap, when the polish with the cap as a bound is not kept, a
-  // second one holds the mean cable force at the cap (a point of the capped
-  // problem too), as ipopt's prestress=cap also keeps the held optimum.
+  // prestress=cap, when the polish with the cap as a bound came close but was
+  // not kept (a nearly active cap slows it down), a second one holds the mean
+  // cable force at the cap (a point of the capped problem too), as ipopt's
+  // prestress=cap also keeps the held optimum.
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
   PolishRun run = polish(part, options, newton, scale, newton.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal,
                          start, recorder);
   add_counts(run.outcome, *details);
-  if (!run.kept() && run.cap_slack) {
+  if (!run.kept() && run.cap_slack && came_close(run.outcome)) {
     run = polish(part, options, newton, scale, PrestressRow::Equal, start, recorder);
     add_counts(run.outcome, *details);
     details->prestress_held = true;

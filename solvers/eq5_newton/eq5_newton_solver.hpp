@@ -10,8 +10,9 @@
 //      dimensionless Eq. 5 (scaled_eq5.hpp) starts from that equilibrium: the
 //      objective still measures the change from the scene, and under gravity
 //      the mean cable force is at most Eq. 5's kappa n_c W (prestress=cap,
-//      a bound with its own slack; when that polish is not kept, a second one
-//      holds it there) or held there (prestress=equal).
+//      a bound with its own slack; when that polish came close, KKT error
+//      below 1e-6, but was not kept, a second one holds it there) or held
+//      there (prestress=equal).
 //   3. The Newton answer is kept when its KKT test passed and model/verify
 //      accepts it; otherwise the answer is alternating-gn's verified
 //      equilibrium, and the details say why the polish was not kept.
