@@ -5,7 +5,9 @@
 //       --benchmark_repetitions=3 --trace_dir=traces      (one command line)
 //
 // Benchmarks are named compare/<scene>/<backend> (reference, perturbed,
-// towers, characters) and scaling/<scene>/<backend> for two parametric
+// towers, characters), side-by-side/<scene>/<backend> (the scorpion as built
+// and with 2 % node noise, the 80/500 gravity tower with 2 % noise: the
+// table of docs/figures/side-by-side.md) and scaling/<scene>/<backend> for two parametric
 // families: chain-<N> (N face-linked expandable octahedra under gravity,
 // model/character.hpp, nodes moved by seeded noise of 2 % of the strut length)
 // and tower-layers-<L> (see scaling_tower), and gravity-towers/<scene>/<backend>
@@ -159,8 +161,13 @@ Config& config() {
 
 constexpr double kGravityTowerEquilibriumLimit = 120.0;  // s, as eq5_newton_bench
 
+// The node noise (share of the longest strut) and seed of the side-by-side
+// family's perturbed character.
+constexpr double kSideBySideNoise = 0.02;
+constexpr unsigned kSideBySideSeed = 1u;
+
 struct BenchScene {
-  std::string family;  // "compare" or "scaling"
+  std::string family;  // "compare", "side-by-side" or "scaling"
   Structure structure;
 };
 
@@ -220,6 +227,15 @@ std::vector<BenchScene> all_scenes() {
   add(tower(false));
   add(tower(true));
   for (const char* name : {"duck", "scorpion", "puppy"}) add(character(name));
+  // Side by side, for Eq. 5's accuracy against speed: a character as built
+  // (within millimetres of equilibrium) and with 2 % node noise, and the
+  // 80/500 gravity tower with 2 % noise (as in the comparison above).
+  auto side_by_side = [&](Structure s) { v.push_back({"side-by-side", std::move(s)}); };
+  side_by_side(character("scorpion"));
+  Structure noisy_scorpion = perturbed(character("scorpion"), kSideBySideNoise, kSideBySideSeed);
+  noisy_scorpion.name = "scorpion-noise2";
+  side_by_side(std::move(noisy_scorpion));
+  side_by_side(tower(true));
   for (int n : config().chain_sizes) v.push_back({"scaling", chain(n)});
   for (int layers : config().tower_layers) v.push_back({"scaling", scaling_tower(layers)});
   return v;

@@ -212,6 +212,51 @@ EOF
   done
 }
 
+# --- 1b. side by side: Eq. 5's accuracy against speed ------------------------
+side_by_side() {
+  need_bench
+  local side_limit=${FIGURES_SIDE_BY_SIDE_TIME_LIMIT:-30}
+  step "every backend side by side: scorpion as built and with 2 % noise, 80/500 gravity tower (time limit $side_limit s, 3 runs)"
+  local cmd="$cb --benchmark_filter=^side-by-side/ --time_limit=$side_limit --benchmark_min_time=0.05 --benchmark_repetitions=3 --benchmark_out=side-by-side.json --benchmark_out_format=json"
+  header "$out/side-by-side.md" "Every backend side by side: Eq. 5's geometry change against time" "$cmd"
+  "$cb" --benchmark_filter='^side-by-side/' --time_limit="$side_limit" --benchmark_min_time=0.05 \
+    --benchmark_repetitions=3 --benchmark_out="$work/side-by-side.json" --benchmark_out_format=json \
+    >/dev/null 2>"$work/side-by-side.log"
+  "$py" - "$work/side-by-side.json" >>"$out/side-by-side.md" <<'EOF'
+import json, sys
+runs = json.load(open(sys.argv[1]))["benchmarks"]
+median = {}
+for b in runs:
+    if b.get("aggregate_name") == "median":
+        _, scene, backend = b["run_name"].split("/")[:3]
+        median[(scene, backend)] = b
+scenes = list(dict.fromkeys(s for s, _ in median))
+print("Scenes: the scorpion as built (within millimetres of equilibrium), the scorpion with every free node "
+      "moved by up to 2 % of the longest strut (seed 1), and the 80-strut / 500-cable gravity tower with 2 % "
+      "node noise. Medians of 3 runs (a sub-second solve is repeated until 0.05 s have passed and timed by its "
+      "mean); wall seconds of one solve, with the time limit above. `ok`: verified at relative residual 1e-8; "
+      "`change / best`: geometry change over the smallest of any verified backend on the scene; `time / "
+      "alternating-gn`: wall time over alternating-gn's.\n")
+for scene in scenes:
+    rows = {b: r for (s, b), r in median.items() if s == scene}
+    ok = {b: r for b, r in rows.items() if r["success"] >= 1}
+    best = min(r["geometry_change"] for r in ok.values()) if ok else float("nan")
+    gn = rows.get("alternating-gn")
+    first = next(iter(rows.values()))
+    print(f"**{scene}** ({int(first['elements'])} elements)\n")
+    print("| backend | ok | wall s | iterations | geometry change (m) | change / best | time / alternating-gn |")
+    print("|---|:-:|---:|---:|---:|---:|---:|")
+    for b, r in sorted(rows.items()):
+        seconds = r["real_time"] / 1e3  # the benchmarks report milliseconds
+        good = r["success"] >= 1
+        ratio = (f"{r['geometry_change'] / best:.3f}" if best > 0 else "1.000") if good else "-"
+        speed = f"{seconds / (gn['real_time'] / 1e3):.3g}" if gn else "-"
+        print(f"| {b} | {'yes' if good else 'NO'} | {seconds:.3g} | {int(r['iterations'])} | "
+              f"{r['geometry_change']:.4g} | {ratio} | {speed} |")
+    print()
+EOF
+}
+
 # --- 2. scaling -----------------------------------------------------------------
 scaling() {
   need_bench
@@ -1018,7 +1063,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends stress_noise scaling stress_families ipopt_starts gravity_towers prestress_factor}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts gravity_towers prestress_factor}; do
   "$section"
 done
 step "done; figures in $out"
