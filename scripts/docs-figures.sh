@@ -17,6 +17,9 @@
 #                  stability under each cable model
 #   link-stiffness.md  face against edge links (link_stiffness_test's output)
 #   stress-characters.md  the faithful Algorithm 1 on the characters with node noise
+#   side-by-side.md  every backend on the minimal scorpion as built and with 2 % node
+#                  noise and on the 80/500 gravity tower (compare_bench
+#                  side-by-side/, 3 runs, FIGURES_SIDE_BY_SIDE_TIME_LIMIT s, default 30)
 #   gravity-towers.md  the gravity tower family (compare_bench gravity-towers/),
 #                  every backend; gravity-towers.json is the raw output
 #   ipopt-starts.md  ipopt's starts on gravity prisms and a tower; MUMPS orderings
@@ -42,7 +45,7 @@
 # docs/figures), FIGURES_TIME_LIMIT (seconds per solve, default 10),
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
-# character_stress outputs backends stress_noise scaling stress_families ipopt_starts
+# character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
 # gravity_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160).
 set -euo pipefail
@@ -216,7 +219,7 @@ EOF
 side_by_side() {
   need_bench
   local side_limit=${FIGURES_SIDE_BY_SIDE_TIME_LIMIT:-30}
-  step "every backend side by side: scorpion as built and with 2 % noise, 80/500 gravity tower (time limit $side_limit s, 3 runs)"
+  step "every backend side by side: minimal scorpion as built and with 2 % noise, 80/500 gravity tower (time limit $side_limit s, 3 runs)"
   local cmd="$cb --benchmark_filter=^side-by-side/ --time_limit=$side_limit --benchmark_min_time=0.05 --benchmark_repetitions=3 --benchmark_out=side-by-side.json --benchmark_out_format=json"
   header "$out/side-by-side.md" "Every backend side by side: Eq. 5's geometry change against time" "$cmd"
   "$cb" --benchmark_filter='^side-by-side/' --time_limit="$side_limit" --benchmark_min_time=0.05 \
@@ -231,9 +234,9 @@ for b in runs:
         _, scene, backend = b["run_name"].split("/")[:3]
         median[(scene, backend)] = b
 scenes = list(dict.fromkeys(s for s, _ in median))
-print("Scenes: the scorpion as built (within millimetres of equilibrium), the scorpion with every free node "
-      "moved by up to 2 % of the longest strut (seed 1), and the 80-strut / 500-cable gravity tower with 2 % "
-      "node noise. Medians of 3 runs (a sub-second solve is repeated until 0.05 s have passed and timed by its "
+print("Scenes: the scorpion built from the minimal block templates (`data/characters/minimal/`) as built "
+      "(within millimetres of equilibrium) and with every free node moved by up to 2 % of the longest strut "
+      "(seed 1), and the 80-strut / 500-cable gravity tower with 2 % node noise. Medians of 3 runs (a sub-second solve is repeated until 0.05 s have passed and timed by its "
       "mean); wall seconds of one solve, with the time limit above. `ok`: verified at relative residual 1e-8; "
       "`change / best`: geometry change over the smallest of any verified backend on the scene; `time / "
       "alternating-gn`: wall time over alternating-gn's.\n")
@@ -249,7 +252,12 @@ for scene in scenes:
     for b, r in sorted(rows.items()):
         seconds = r["real_time"] / 1e3  # the benchmarks report milliseconds
         good = r["success"] >= 1
-        ratio = (f"{r['geometry_change'] / best:.3f}" if best > 0 else "1.000") if good else "-"
+        if not good:
+            ratio = "-"
+        elif best > 0:
+            ratio = f"{r['geometry_change'] / best:.3f}"
+        else:  # the scene stands: a backend either keeps it or moves it
+            ratio = "1.000" if r["geometry_change"] == 0 else "moved"
         speed = f"{seconds / (gn['real_time'] / 1e3):.3g}" if gn else "-"
         print(f"| {b} | {'yes' if good else 'NO'} | {seconds:.3g} | {int(r['iterations'])} | "
               f"{r['geometry_change']:.4g} | {ratio} | {speed} |")
