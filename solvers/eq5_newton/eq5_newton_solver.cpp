@@ -160,15 +160,15 @@ bool Eq5NewtonOptions::IsValid(std::string* why) const {
 
 nlohmann::json Eq5NewtonDetails::to_json() const {
   nlohmann::json j = {{"start_iterations", start_iterations},
-          {"start_geometry_change", start_geometry_change},
-          {"polish", polish},
-          {"newton_iterations", newton_iterations},
-          {"factorizations", factorizations},
-          {"inertia_corrections", inertia_corrections},
-          {"second_order_corrections", second_order_corrections},
-          {"dual_infeasibility", dual_infeasibility},
-          {"constraint_violation", constraint_violation},
-          {"complementarity", complementarity}};
+                      {"start_geometry_change", start_geometry_change},
+                      {"polish", polish},
+                      {"newton_iterations", newton_iterations},
+                      {"factorizations", factorizations},
+                      {"inertia_corrections", inertia_corrections},
+                      {"second_order_corrections", second_order_corrections},
+                      {"dual_infeasibility", dual_infeasibility},
+                      {"constraint_violation", constraint_violation},
+                      {"complementarity", complementarity}};
   if (prestress_cap_slack >= 0.0) j["prestress_cap_slack"] = prestress_cap_slack;
   if (prestress_held) j["prestress_held"] = true;
   return j;
