@@ -49,12 +49,15 @@ if [ "${TENSEGRITY_SKIP_SANITIZERS:-0}" != 1 ]; then
   step "sanitizer build done; test suite under ASan + UBSan"
   # exitcode=23: a sanitizer report in the program run by a CLI test can never
   # pass for one of its documented exit statuses (0, 1, 2).
-  # Four convergence sweeps of the faithful scheme are left to the Release run:
+  # Six convergence sweeps of the faithful scheme are left to the Release run:
   # under ASan at -O1 they take ten minutes of the two cores and repeat code
   # paths that shorter alternating tests already cover. The schema check of
   # the file formats is left there too: the programs it starts run under the
   # sanitizers in the CLI tests, and the formats do not depend on the build.
-  long_sweeps='^AlternatingSolver\.MarginOptionSetsTheSmallestCableForce$|^AlternatingSolver/StronglyPerturbedPrisms\.ConvergeExceptOnTheNamedScenesAndFailCleanly/alternating(_sdc)?( |$)|^ForceScaleGravity\.EquilibriaOfTheMassFamilyStand$|^schema_test$'
+  # So are the stress test's run-to-run determinism check and the prestress
+  # factor's CLI sweep: they repeat solves that other CLI tests run under the
+  # sanitizers, and only compare their numbers.
+  long_sweeps='^AlternatingSolver\.MarginOptionSetsTheSmallestCableForce$|^AlternatingSolver/StronglyPerturbedPrisms\.ConvergeExceptOnTheNamedScenesAndFailCleanly/alternating(_sdc)?( |$)|^AlternatingSolver\.FaithfulSchemeConvergesOnPerturbedCharacters$|^AlternatingSolver\.PerturbedOctahedraConverge$|^ForceScaleGravity\.EquilibriaOfTheMassFamilyStand$|^StressTestCommand\.ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads$|^cli_prestress_factor$|^schema_test$'
   (cd build-asan &&
      ASAN_OPTIONS=detect_leaks=1:exitcode=23:strict_string_checks=1:detect_stack_use_after_return=1 \
      UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1:exitcode=23 \
