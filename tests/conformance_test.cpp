@@ -12,6 +12,11 @@
 //
 //   conformance_test --dump-scenes DIR   writes scenes::backend_suite_scenes()
 //                                        as the scene files the references use
+//   conformance_test --change-answers move|scale
+//                                        the self-check: every backend's answer
+//                                        is changed before it is judged (a free
+//                                        node moved, or the forces scaled); exits
+//                                        0 only if every judged case then fails
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -30,6 +35,10 @@ namespace tensegrity {
 namespace {
 
 const std::string kReferenceDir = std::string(TENSEGRITY_SOURCE_DIR) + "/tests/reference/";
+
+// The self-check (--change-answers): a wrong answer must fail the assertions.
+enum class AnswerChange { None, Move, Scale };
+AnswerChange g_answer_change = AnswerChange::None;
 
 // The default tolerance for `converged` (docs/FORMATS.md, Solution file) (relative residual).
 constexpr double kEquilibriumTolerance = 1e-8;
@@ -57,6 +66,11 @@ constexpr double kActiveBound = 1e-3;
 // the cap binds), and the rounding allowed on a row held there.
 constexpr double kPrestressFactor = 1.0;
 constexpr double kCapSlack = 1e-6;
+// The self-check's changes: one free node moved by this fraction of the mean
+// element length (positions and geometry change kept consistent), or every
+// force scaled by 1 + this fraction (a sign-correct answer at another level).
+constexpr double kChangedAnswerMove = 1e-3;
+constexpr double kChangedAnswerScale = 1e-2;
 // An alternating scheme held at the cap on a standing scene ends at most this
 // many times Eq. 5's optimal change (measured 1.61 and 1.64 on
 // prism-6-gravity-noise5-s6, rounded up).
@@ -259,6 +273,20 @@ struct Case {
   int reference;
 };
 
+// A different answer, consistent in itself: the checks below must catch it.
+void change_answer(const Structure& scene, SolveResult& r) {
+  if (g_answer_change == AnswerChange::Scale) {
+    r.forces *= 1.0 + kChangedAnswerScale;
+    return;
+  }
+  for (int i = 0; i < scene.num_nodes(); ++i) {
+    if (scene.fixed[i]) continue;
+    r.positions(0, i) += kChangedAnswerMove * scene.mean_element_length();
+    break;
+  }
+  r.stats.geometry_change = (r.positions - scene.positions).norm();
+}
+
 std::vector<Case> all_cases() {
   std::vector<Case> cases;
   for (const auto& backend : solver_names())
@@ -280,7 +308,11 @@ TEST_P(Conformance, MatchesTheReferenceOptimum) {
   // default only caps it (where the cap does not bind, the forces differ by a
   // self-stress), so it is held here; the cap is tested below.
   if (c.backend == "eq5-newton") options.backend_options = {{"prestress", "equal"}};
-  const SolveResult r = make_solver(c.backend)->Solve(scene, options);
+  SolveResult r = make_solver(c.backend)->Solve(scene, options);
+  if (g_answer_change != AnswerChange::None) {
+    if (expected.status != Status::Converged) GTEST_SKIP() << "no answer to change";
+    change_answer(scene, r);
+  }
   ASSERT_EQ(r.status, expected.status) << r.message;
   ASSERT_EQ(r.positions.cols(), scene.num_nodes());
   ASSERT_EQ(r.forces.size(), scene.num_elements());
@@ -538,11 +570,31 @@ int dump_scenes(const std::string& dir) {
   return 0;
 }
 
+// The self-check passes when no judged case passes and at least one failed.
+int run_with_changed_answers(const char* mode) {
+  if (std::strcmp(mode, "move") == 0) {
+    g_answer_change = AnswerChange::Move;
+  } else if (std::strcmp(mode, "scale") == 0) {
+    g_answer_change = AnswerChange::Scale;
+  } else {
+    std::fprintf(stderr, "conformance_test: --change-answers %s: expected move or scale\n", mode);
+    return 2;
+  }
+  ::testing::GTEST_FLAG(filter) = "AllBackends/Conformance.*";
+  const bool every_case_passed = RUN_ALL_TESTS() == 0;
+  const ::testing::UnitTest& run = *::testing::UnitTest::GetInstance();
+  std::printf("changed answers (%s): %d judged cases failed, %d passed, %d skipped\n", mode,
+              run.failed_test_count(), run.successful_test_count(), run.skipped_test_count());
+  return !every_case_passed && run.successful_test_count() == 0 && run.failed_test_count() > 0 ? 0 : 1;
+}
+
 }  // namespace
 }  // namespace tensegrity
 
 int main(int argc, char** argv) {
   if (argc == 3 && std::strcmp(argv[1], "--dump-scenes") == 0) return tensegrity::dump_scenes(argv[2]);
   ::testing::InitGoogleTest(&argc, argv);
+  if (argc == 3 && std::strcmp(argv[1], "--change-answers") == 0)
+    return tensegrity::run_with_changed_answers(argv[2]);
   return RUN_ALL_TESTS();
 }
