@@ -25,6 +25,11 @@ namespace {
 constexpr int kForcesPolishSteps = 2000;
 // The relative residual below which that polish runs.
 constexpr double kPolishToOptimumBelow = 1e-3;
+// Projected-Newton steps of `forces`, whose answer is the point of the run:
+// on the equilibria of large near-mechanisms (the 40-layer tower without
+// gravity) the default cap stops it short. The driver's shortcut keeps the
+// default: it only decides whether a scene already stands.
+constexpr int kForcesCommandIterations = 1000;
 
 using Clock = std::chrono::steady_clock;
 
@@ -79,12 +84,14 @@ SolveResult unchanged_part(const Structure& part, Eigen::VectorXd forces, Status
 // Infeasible when the QP's optimum leaves a residual (a proof at this
 // geometry), MaxIterations when the QP spent its step cap, Stalled when it
 // stopped short of a certified optimum otherwise.
-SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& options) {
+SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& options,
+                                   int qp_iterations = StressQpOptions{}.max_iterations) {
   const ForceScale scale = make_force_scale(part, options.margin_fraction);
   Equilibrium eq(part);
   eq.set_positions(part.positions);
   StressQpOptions qp_options;
   qp_options.certify_optimum = true;  // a claim of infeasibility needs the proof
+  qp_options.max_iterations = qp_iterations;
   StressQp qp(eq, scale, qp_options);
   StressQpResult qr = qp.solve();
   Verification v = verify(part, part.positions, qr.sigma, options.tolerance);
@@ -307,7 +314,9 @@ SolveResult solve_scene(const Solver& solver, const Structure& scene, const Solv
 
 SolveResult solve_forces_only(const Structure& scene, const SolveOptions& options) {
   validate_settings(options);
-  return solve_by_parts(scene, options, forces_at_own_geometry);
+  return solve_by_parts(scene, options, [](const Structure& part, const SolveOptions& part_options) {
+    return forces_at_own_geometry(part, part_options, kForcesCommandIterations);
+  });
 }
 
 Solution to_solution(const SolveResult& r, const Structure& scene, std::string_view solver) {

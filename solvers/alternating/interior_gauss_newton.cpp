@@ -28,6 +28,14 @@ namespace {
 // more, the next step first reuses the factorization (with J and A at the
 // new point) and keeps it only if it cuts the objective as much again.
 constexpr double kChordRatio = 0.1;
+// A run about to converge is not cut short by the step budget: while the
+// relative residual is within kFinalPhaseDistance times the tolerance and
+// each step still cuts Eq. 4's objective to kFinalPhaseCut of its value or
+// less, up to kFinalPhaseSteps steps beyond interior_iterations are taken
+// (within max_iterations).
+constexpr double kFinalPhaseDistance = 1e3;
+constexpr double kFinalPhaseCut = 0.75;
+constexpr int kFinalPhaseSteps = 20;
 
 class InteriorSolve {
  public:
@@ -213,13 +221,16 @@ SolveResult InteriorSolve::run() {
   phi_ = objective(sigma_, f_);
   lambda_ = o_.lambda;
   bool anchored = true;
+  bool steady_cut = false;  // the last step cut the objective to kFinalPhaseCut or less
   for (int iteration = 0;; ++iteration) {
     record(iteration);
     const double rel = recorder_.trace().back().relative_residual;
     if (!std::isfinite(phi_) || !std::isfinite(rel)) return finish(Status::NumericalError, "non-finite residual");
     if (rel <= options_.tolerance)
       return finish(Status::Converged, "converged after " + std::to_string(iteration) + " interior Gauss-Newton steps");
-    if (iteration >= std::min(o_.max_iterations, options_.iteration_budget(kDefaultIterationBudget)))
+    const bool final_phase = steady_cut && rel <= kFinalPhaseDistance * options_.tolerance;
+    const int step_budget = o_.max_iterations + (final_phase ? kFinalPhaseSteps : 0);
+    if (iteration >= std::min(step_budget, options_.iteration_budget(kDefaultIterationBudget)))
       return finish(Status::MaxIterations, "interior Gauss-Newton step budget spent");
     if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent");
     const double before = phi_;
@@ -229,6 +240,7 @@ SolveResult InteriorSolve::run() {
       step_direction(false);
       if (line_search(true)) {
         chord_ = true;
+        steady_cut = true;
         continue;
       }
     }
@@ -241,11 +253,13 @@ SolveResult InteriorSolve::run() {
       accepted = line_search();
     }
     if (!accepted) {
+      steady_cut = false;
       lambda_ = std::max(1e-10, lambda_ * 100.0);
-      if (lambda_ > 1e6) return finish(Status::MaxIterations, "stalled: no step decreases Eq. 4's objective");
+      if (lambda_ > 1e6) return finish(Status::Stalled, "stalled: no step decreases Eq. 4's objective");
       continue;
     }
     lambda_ = std::max(o_.lambda, lambda_ * 0.01);
+    steady_cut = phi_ <= kFinalPhaseCut * before;
     chord_ = !anchored && phi_ <= kChordRatio * before;
     if (anchored && phi_ > o_.anchor_until * before) anchored = false;
   }

@@ -27,7 +27,7 @@
 // forces at the input geometry a force-only step first checks whether the
 // input already is a tensegrity (then the geometry is returned unchanged).
 //
-// Returns Converged (verified), or MaxIterations / TimeLimit / NumericalError
+// Returns Converged (verified), or Stalled / MaxIterations / TimeLimit / NumericalError
 // for the caller to fall back on the alternating iteration.
 #include "solvers/solver.hpp"
 
