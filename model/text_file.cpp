@@ -59,6 +59,27 @@ std::string read_whole_file(const std::string& path) {
   return text;
 }
 
+void write_all(int fd, const std::string& text, const std::string& path) {
+  std::size_t written = 0;
+  while (written < text.size()) {
+    const ssize_t k = ::write(fd, text.data() + written, text.size() - written);
+    if (k < 0) {
+      if (errno == EINTR) continue;
+      const std::string reason = std::string("cannot write output file: ") + std::strerror(errno);
+      ::close(fd);
+      throw InputError(path, "", reason);
+    }
+    written += static_cast<std::size_t>(k);
+  }
+}
+
+void write_in_place(const std::string& path, const std::string& text) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) throw InputError(path, "", std::string("cannot open output file: ") + std::strerror(errno));
+  write_all(fd, text, path);
+  if (::close(fd) != 0) throw InputError(path, "", std::string("cannot write output file: ") + std::strerror(errno));
+}
+
 }  // namespace
 
 std::string read_text_file(const std::string& path) { return read_whole_file(path); }
@@ -74,6 +95,13 @@ void write_text_file_atomically(const std::string& path, const std::string& text
   std::error_code ec;
   if (std::filesystem::is_directory(target, ec))
     throw InputError(path, "", "cannot write: it is a directory");
+  // A device or a pipe (/dev/null, a FIFO) is written in place: renaming a
+  // file over it would replace it.
+  const std::filesystem::file_status existing = std::filesystem::status(target, ec);
+  if (!ec && std::filesystem::exists(existing) && !std::filesystem::is_regular_file(existing)) {
+    write_in_place(path, text);
+    return;
+  }
   // The temporary file lives in the target's directory so that rename() is
   // atomic and a failure leaves no partial output under the final name.
   const std::filesystem::path directory = target.has_parent_path() ? target.parent_path() : ".";
@@ -90,14 +118,11 @@ void write_text_file_atomically(const std::string& path, const std::string& text
   const mode_t mask = ::umask(0);
   ::umask(mask);
   if (::fchmod(fd, 0666 & ~mask) != 0) fail("cannot set output file mode");
-  std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t k = ::write(fd, text.data() + written, text.size() - written);
-    if (k < 0) {
-      if (errno == EINTR) continue;
-      fail("cannot write output file");
-    }
-    written += static_cast<std::size_t>(k);
+  try {
+    write_all(fd, text, path);
+  } catch (const InputError&) {
+    ::unlink(temp.c_str());
+    throw;
   }
   if (::close(fd) != 0) {
     const std::string reason = std::string("cannot write output file: ") + std::strerror(errno);

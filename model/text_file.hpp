@@ -9,7 +9,9 @@ namespace tensegrity {
 // device stops there); a FIFO without a writer reads as empty instead of hanging.
 std::string read_text_file(const std::string& path);
 
-// Writes text to `path` through a temporary file and a rename ("-" = stdout).
+// Writes text to `path` through a temporary file and a rename ("-" = stdout),
+// so that a failure leaves no partial file; an existing device or pipe
+// (/dev/null, a FIFO) is written in place instead of being replaced.
 void write_text_file_atomically(const std::string& path, const std::string& text);
 
 }  // namespace tensegrity

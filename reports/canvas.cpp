@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
@@ -160,7 +159,7 @@ std::string Canvas::svg_text() const {
   return o.str();
 }
 
-void Canvas::write_png(const std::string& path) const {
+std::string Canvas::png_bytes() const {
   cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width_, height_);
   cairo_t* cr = cairo_create(surface);
   cairo_set_source_rgb(cr, 1, 1, 1);
@@ -215,10 +214,16 @@ void Canvas::write_png(const std::string& path) const {
   }
   cairo_destroy(cr);
   cairo_surface_flush(surface);
-  cairo_status_t status = cairo_surface_write_to_png(surface, path.c_str());
+  std::string bytes;
+  const cairo_write_func_t append = [](void* closure, const unsigned char* data, unsigned int length) {
+    static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+    return CAIRO_STATUS_SUCCESS;
+  };
+  const cairo_status_t status = cairo_surface_write_to_png_stream(surface, append, &bytes);
   cairo_surface_destroy(surface);
   if (status != CAIRO_STATUS_SUCCESS)
-    throw std::runtime_error("cannot write " + path + ": " + cairo_status_to_string(status));
+    throw std::runtime_error(std::string("cannot encode the PNG: ") + cairo_status_to_string(status));
+  return bytes;
 }
 
 void Canvas::write(const std::string& path) const {
@@ -227,14 +232,7 @@ void Canvas::write(const std::string& path) const {
     return;
   }
   if (!ends_with(path, ".png")) throw std::runtime_error("cannot write " + path + ": not .png or .svg");
-  const std::string tmp = path + ".tmp";
-  write_png(tmp);
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw std::runtime_error("cannot write " + path);
-  }
+  write_text_file_atomically(path, png_bytes());
 }
 
 }  // namespace tensegrity::reports

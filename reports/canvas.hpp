@@ -61,7 +61,7 @@ class Canvas {
     s.attributes = attributes_;
     shapes_.push_back(std::move(s));
   }
-  void write_png(const std::string& path) const;
+  std::string png_bytes() const;  // the picture encoded as PNG
 
   int width_, height_;
   std::vector<Shape> shapes_;
