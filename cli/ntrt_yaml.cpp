@@ -285,8 +285,8 @@ Structure read_ntrt_yaml(const std::string& path, double length_scale) {
     out.fixed[i] = s.fixed.count(s.names[i]) > 0;
   }
   for (const auto& p : s.pairs) {
-    out.add_element(p.a, p.b, is_strut(s, p.tags, path) ? ElementKind::Strut : ElementKind::Cable);
-    out.element_extra.push_back({{"ntrt_tags", p.tags}});
+    const int e = out.add_element(p.a, p.b, is_strut(s, p.tags, path) ? ElementKind::Strut : ElementKind::Cable);
+    out.element_extra[e] = {{"ntrt_tags", p.tags}};
   }
   validate(out, path);
   return out;

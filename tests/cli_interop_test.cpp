@@ -116,6 +116,12 @@ TEST(CliImport, NtrtPrismIsReadWithYUpAndFormFound) {
   EXPECT_NEAR((s.positions.col(2) - Eigen::Vector3d(0, -8.66, 0)).norm(), 0.0, 1e-12);
   EXPECT_NEAR((s.positions.col(3) - Eigen::Vector3d(-5, 0, 5)).norm(), 0.0, 1e-12);
   EXPECT_EQ(s.node_extra[3]["name"], "top1");
+  // Each element keeps its pair's tags.
+  for (int e = 0; e < s.num_elements(); ++e) {
+    ASSERT_TRUE(s.element_extra[e].contains("ntrt_tags")) << "element " << e;
+    const std::string tags = s.element_extra[e]["ntrt_tags"];
+    EXPECT_EQ(tags == "prism_rod segment", s.elements[e].kind == ElementKind::Strut) << tags;
+  }
   // An untwisted prism is no tensegrity: form finding twists it.
   const auto r = dir.run({"solve", scene, "--solver", "ipopt", "--out", solution});
   ASSERT_EQ(r.exit_status, 0) << r.err;
