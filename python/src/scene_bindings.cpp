@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "model/errors.hpp"
+#include "model/json_text.hpp"
 #include "model/scene_io.hpp"
 #include "python/src/bindings.hpp"
 
@@ -75,6 +76,20 @@ nlohmann::json scene_json_from_arrays(py::array_t<double, py::array::forcecast> 
   return j;
 }
 
+// Node indices given as floats (or as unsigned integers beyond int64) would
+// be truncated or wrapped by the cast: each must equal its integer value.
+void require_integer_indices(const py::object& given, const std::string& source) {
+  constexpr int kFlat = py::array::c_style | py::array::forcecast;
+  const auto as_numbers = py::array_t<double, kFlat>::ensure(given);
+  const auto as_indices = py::array_t<std::int64_t, kFlat>::ensure(given);
+  if (!as_numbers || !as_indices || as_numbers.size() != as_indices.size()) return;
+  const double* value = as_numbers.data();
+  const std::int64_t* index = as_indices.data();
+  for (py::ssize_t k = 0; k < as_indices.size(); ++k)
+    if (value[k] != static_cast<double>(index[k]))
+      throw InputError(source, "elements", "expected integer node indices, got " + message_number(value[k]));
+}
+
 std::string scene_repr(const Structure& s) {
   int struts = 0;
   for (const Element& e : s.elements) struts += e.kind == ElementKind::Strut;
@@ -106,6 +121,7 @@ Arrays read from a Scene are copies.)doc")
              auto elems = py::array_t<std::int64_t, py::array::forcecast>::ensure(elements);
              if (!pos) throw InputError(source, "positions", "expected an array of numbers of shape (n, 3)");
              if (!elems) throw InputError(source, "elements", "expected an array of integers of shape (m, 2)");
+             require_integer_indices(elements, source);
              const auto j = scene_json_from_arrays(pos, elems, kinds, fixed, masses, element_masses, gravity,
                                                    name.value_or(""), source);
              return std::make_shared<Structure>(scene_from_json(j, source));

@@ -1,5 +1,6 @@
 """The commands of the `tensegrity` program as functions (solve, forces, check,
 render, simulate, design): same validation, same messages, same files."""
+import math
 import os
 
 from . import _core
@@ -52,7 +53,7 @@ def solve(scene, solver=None, tol=1e-8, time_limit=None, options=None, *,
     prestress_factor : float, optional
         kappa, the command line's ``--prestress-factor``: under gravity Eq. 5
         caps the mean cable force at kappa times the part's weight (finite,
-        > 0; default :data:`DEFAULT_PRESTRESS_FACTOR`, 1).
+        > 0; default :data:`DEFAULT_PRESTRESS_FACTOR`, 2).
 
     Returns
     -------
@@ -126,6 +127,33 @@ def render(scene, path, result=None, view="iso", width=1200, height=900, title="
     return os.fspath(path)
 
 
+def _gravity_vector(gravity):
+    """Three finite floats from a sequence or the command line's 'gx,gy,gz' text."""
+    if gravity is None:
+        return None
+    if isinstance(gravity, str):
+        parts, text = gravity.split(","), gravity
+    else:
+        try:
+            parts = list(gravity)
+        except TypeError:
+            parts = [gravity]
+        text = ",".join(format(p, "g") if isinstance(p, (int, float)) else str(p) for p in parts)
+    if len(parts) != 3:
+        raise ValueError(f"tensegrity: command line: --gravity: expected 3 numbers in '{text}'")
+    vector = []
+    for part in parts:
+        try:
+            value = float(part.strip() if isinstance(part, str) else part)
+        except (TypeError, ValueError):
+            value = float("nan")
+        if not math.isfinite(value):
+            shown = format(part, "g") if isinstance(part, (int, float)) else str(part).strip()
+            raise ValueError(f"tensegrity: command line: --gravity: '{shown}' is not a finite number")
+        vector.append(value)
+    return tuple(vector)
+
+
 def simulate(design, dt=1.0 / 60.0, steps=60, gravity=None, damping=0.0, stiffness_damping=0.0,
              drags=None, drag_stiffness=None, every=1, tol=1e-9):
     """Implicit-Euler simulation of a built design (``tensegrity simulate``).
@@ -136,8 +164,8 @@ def simulate(design, dt=1.0 / 60.0, steps=60, gravity=None, damping=0.0, stiffne
         A design file (``tensegrity design --out``).
     dt : float
         Time step (s). ``steps``: number of steps; ``every``: keep every k-th frame (and the last).
-    gravity : 3 floats, optional
-        Default: the design's.
+    gravity : 3 floats or 'gx,gy,gz', optional
+        m/s^2. Default: the design's.
     damping, stiffness_damping : float
         Mass-proportional (1/s) and stiffness-proportional (s) damping.
     drags : dict node -> (x, y, z), optional
@@ -153,7 +181,7 @@ def simulate(design, dt=1.0 / 60.0, steps=60, gravity=None, damping=0.0, stiffne
     targets = {int(node): tuple(float(c) for c in target) for node, target in (drags or {}).items()}
     if any(len(t) != 3 for t in targets.values()):
         raise ValueError("tensegrity: command line: --drag: expected 3 numbers per target")
-    return _core._simulate(os.fspath(design), float(dt), int(steps), gravity, float(damping),
+    return _core._simulate(os.fspath(design), float(dt), int(steps), _gravity_vector(gravity), float(damping),
                            float(stiffness_damping), targets, drag_stiffness, int(every), float(tol))
 
 

@@ -282,3 +282,26 @@ def test_simulate_gives_the_program_frames(cli, root, tmp_path):
     run = subprocess.run([cli, "simulate", str(design), "--dt", "-1", "--out", str(tmp_path / "x.jsonl")],
                          capture_output=True, text=True)
     assert run.returncode == 2 and str(error.value) == run.stderr.strip()
+
+
+@pytest.mark.parametrize("gravity, cli_text", [((0.0, 1.0), "0,1"), ("0,1", "0,1"), ((0.0, 0.0, "x"), "0,0,x"),
+                                               ((0.0, float("nan"), 0.0), "0,nan,0")])
+def test_simulate_bad_gravity_raises_the_program_message(cli, root, tmp_path, gravity, cli_text):
+    scene = tmp_path / "duck.scene.json"
+    design = tmp_path / "duck.design.json"
+    subprocess.run([cli, "build", str(root / "data" / "characters" / "duck.character.json"), "--out", str(scene)],
+                   capture_output=True, check=True)
+    subprocess.run([cli, "design", str(scene), "--out", str(design)], capture_output=True, check=True)
+    with pytest.raises(ValueError) as error:
+        tg.simulate(design, steps=1, gravity=gravity)
+    run = subprocess.run([cli, "simulate", str(design), "--steps", "1", "--gravity", cli_text,
+                          "--out", str(tmp_path / "x.jsonl")], capture_output=True, text=True)
+    assert run.returncode == 2 and str(error.value) == run.stderr.strip()
+    assert not (tmp_path / "x.jsonl").exists()
+
+
+@pytest.mark.parametrize("elements", [np.array([[0, 1.5]]), np.array([[0, 2**63]], dtype=np.uint64)])
+def test_scene_rejects_indices_that_are_not_integers(elements):
+    positions = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    with pytest.raises(ValueError, match="elements: expected integer node indices"):
+        tg.Scene(positions, elements, ["strut"])
