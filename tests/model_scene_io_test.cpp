@@ -2,6 +2,8 @@
 // field; every class of bad input raises an InputError naming the file, the
 // item and the reason (tests/bad_inputs/, one file per class).
 #include <gtest/gtest.h>
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <bit>
@@ -387,6 +389,24 @@ TEST(WriteTextFileAtomically, ReplacesAndLeavesNoTemporaryFiles) {
   }
   EXPECT_FALSE(fs::exists(nowhere));
   EXPECT_THROW(write_text_file_atomically(dir.path().string(), "x"), InputError);
+}
+
+// A pipe given as the output receives the text and stays a pipe (a rename
+// would have replaced it with a regular file).
+TEST(WriteTextFileAtomically, WritesIntoAPipeInPlace) {
+  TempDir dir;
+  const fs::path fifo = dir / "pipe";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  // The reading end is open before the write (non-blocking, so nothing waits
+  // either way); the text fits in the pipe's buffer.
+  const int reader = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  ASSERT_GE(reader, 0);
+  write_text_file_atomically(fifo.string(), "through the pipe\n");
+  char buffer[64] = {};
+  const ssize_t got = ::read(reader, buffer, sizeof buffer - 1);
+  ::close(reader);
+  EXPECT_EQ(std::string(buffer, got > 0 ? static_cast<std::size_t>(got) : 0), "through the pipe\n");
+  EXPECT_TRUE(fs::is_fifo(fifo));
 }
 
 }  // namespace
