@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <vector>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -115,6 +116,30 @@ class WebApp {
       initial_ = {{"kind", "scene"}, {"json", j}};
     }
     initial_["file"] = std::filesystem::path(args_.input).filename().string();
+  }
+
+  // Only pages of this server may use it: a request naming another host (a
+  // DNS-rebinding page) or sent from another origin (a cross-site form post)
+  // is refused before any handler runs.
+  void accept_only_local_origin(httplib::Server& server, int port) {
+    const std::string suffix = ":" + std::to_string(port);
+    const std::vector<std::string> hosts = {"127.0.0.1" + suffix, "localhost" + suffix};
+    server.set_pre_routing_handler([hosts](const httplib::Request& req, httplib::Response& res) {
+      const auto local = [&hosts](const std::string& host) {
+        return std::find(hosts.begin(), hosts.end(), host) != hosts.end();
+      };
+      const std::string origin = req.get_header_value("Origin");
+      const std::string origin_host = origin.rfind("http://", 0) == 0 ? origin.substr(7) : origin;
+      if (!local(req.get_header_value("Host"))) {
+        reply_error(res, 403, std::string(kRequestSource) + ": Host: not this server (127.0.0.1 or localhost, port " +
+                                  hosts.front().substr(hosts.front().find(':') + 1) + ")");
+      } else if (!origin.empty() && !local(origin_host)) {
+        reply_error(res, 403, std::string(kRequestSource) + ": Origin: '" + origin + "' is not this server");
+      } else {
+        return httplib::Server::HandlerResponse::Unhandled;
+      }
+      return httplib::Server::HandlerResponse::Handled;
+    });
   }
 
   void install(httplib::Server& server) {
@@ -493,10 +518,17 @@ int run_serve(const ServeArgs& a) {
   WebApp app(a);
   app.load_input();
   httplib::Server server;
+  // SO_REUSEADDR only: cpp-httplib's default SO_REUSEPORT would let a second
+  // server listen on a port already in use and split the connections.
+  server.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   app.install(server);
   const int port = a.port == 0 ? server.bind_to_any_port("127.0.0.1") : a.port;
   if (port < 0 || (a.port != 0 && !server.bind_to_port("127.0.0.1", a.port)))
     throw InputError("command line", "--port", "cannot listen on 127.0.0.1:" + std::to_string(a.port));
+  app.accept_only_local_origin(server, port);
   const std::string url = "http://127.0.0.1:" + std::to_string(port) + "/";
   std::cout << "serving " << url << std::endl;
   if (a.open) open_browser(url);

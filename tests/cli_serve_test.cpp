@@ -155,5 +155,39 @@ TEST_F(ServeSuggestLinkTest, BadRequestGets400AndTheServerKeepsServing) {
   EXPECT_GT(ranking["candidates"][0]["principal_stiffness"][0].get<double>(), 0.0);
 }
 
+// A second server on a port in use fails at once (no connections split
+// between two listeners), and the running one keeps serving.
+TEST_F(ServeSuggestLinkTest, PortInUseIsBadInput) {
+  const testing::ProgramRun second = cli_dir_.run({"serve", kDuck, "--port", std::to_string(port_)}, 30);
+  EXPECT_EQ(second.exit_status, 2);
+  EXPECT_EQ(second.err, "tensegrity: command line: --port: cannot listen on 127.0.0.1:" + std::to_string(port_) + "\n");
+  httplib::Client client("127.0.0.1", port_);
+  const auto page = client.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+}
+
+// Requests naming another host (DNS rebinding) or sent from another origin
+// (a cross-site form) are refused; the app's own origin is served.
+TEST_F(ServeSuggestLinkTest, OtherHostsAndOriginsAreRefused) {
+  httplib::Client client("127.0.0.1", port_);
+  const auto rebound = client.Get("/", {{"Host", "evil.example:" + std::to_string(port_)}});
+  ASSERT_TRUE(rebound);
+  EXPECT_EQ(rebound->status, 403);
+  const std::string body = json{{"scene", json::object()}}.dump();
+  const auto cross_site = client.Post("/api/solve", {{"Origin", "http://evil.example"}}, body, "text/plain");
+  ASSERT_TRUE(cross_site);
+  EXPECT_EQ(cross_site->status, 403);
+  EXPECT_EQ(cross_site->body, "tensegrity: request: Origin: 'http://evil.example' is not this server\n");
+  const std::string own = "http://127.0.0.1:" + std::to_string(port_);
+  const auto same_origin = client.Get("/", {{"Origin", own}});
+  ASSERT_TRUE(same_origin);
+  EXPECT_EQ(same_origin->status, 200);
+  httplib::Client by_name("localhost", port_);
+  const auto named = by_name.Get("/");
+  ASSERT_TRUE(named);
+  EXPECT_EQ(named->status, 200);
+}
+
 }  // namespace
 }  // namespace tensegrity
