@@ -163,6 +163,9 @@ int run_design(const DesignArgs& a) {
   const std::string sheet = a.sheet.empty() ? default_sheet_path(a.out, ".sheet.csv") : a.sheet;
   const std::string cut_list = default_sheet_path(sheet == "-" ? a.out : sheet, ".cutlist.svg");
   if (!sheet.empty()) write_text_file_atomically(sheet, reports::fabrication_sheet_csv(d, rest.lengths));
+  if (sheet.empty())
+    std::cerr << "design: no fabrication sheet: the design goes to standard output, so there is no place beside "
+                 "it; pass --sheet FILE.csv\n";
   try {
     if (!cut_list.empty()) reports::write_cut_list(d, rest.lengths, cut_list);
     write_design_file(d, a.out);

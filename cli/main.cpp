@@ -51,7 +51,8 @@ int main(int argc, char** argv) {
     std::cerr << reports::option_error_line(e) << "\n";
     return 2;
   } catch (const UnknownNameError& e) {
-    std::cerr << reports::unknown_name_line(e) << "\n";
+    const std::vector<CLI::App*> used = app.get_subcommands();
+    std::cerr << reports::unknown_name_line(e, used.empty() ? "" : used.front()->get_name()) << "\n";
     return 2;
   } catch (const InputError& e) {
     std::cerr << "tensegrity: " << e.what() << "\n";

@@ -107,10 +107,15 @@ std::string export_lines(const Structure& scene, const Eigen::Matrix3Xd& x, cons
         out << scene.elements[e].a << " " << scene.elements[e].b << " " << forces[e] << " " << kind(e) << "\n";
       break;
     case ExportFormat::Obj: {
-      const double largest = forces.size() > 0 ? std::max(forces.cwiseAbs().maxCoeff(), 1e-300) : 1.0;
-      out << "# " << scene.name << " (tensegrity): one line per element, its two vertices coloured by its force\n"
-          << "# (blue compression, grey zero, red tension; full colour at " << largest
-          << " N); forces in the companion .forces.csv\n";
+      const double largest_force = forces.size() > 0 ? forces.cwiseAbs().maxCoeff() : 0.0;
+      const double largest = largest_force > 0.0 ? largest_force : 1.0;  // no forces: every element grey
+      out << "# " << scene.name << " (tensegrity): one line per element, its two vertices coloured by its force\n";
+      if (largest_force > 0.0) {
+        out << "# (blue compression, grey zero, red tension; full colour at " << largest
+            << " N); forces in the companion .forces.csv\n";
+      } else {
+        out << "# (no forces: every element grey); forces in the companion .forces.csv\n";
+      }
       for (int e = 0; e < m; ++e) {
         const Eigen::Vector3d c = force_colour(forces[e] / largest);
         for (int i : {scene.elements[e].a, scene.elements[e].b})

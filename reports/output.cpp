@@ -14,8 +14,10 @@ std::string option_error_line(const OptionError& e) {
          e.reason() + " (solver " + e.backend() + ")";
 }
 
-std::string unknown_name_line(const UnknownNameError& e) {
-  const std::map<std::string, std::string> flag_of_kind = {{"solver", "--solver"}, {"family", "--families"}};
+std::string unknown_name_line(const UnknownNameError& e, std::string_view command) {
+  const bool takes_a_list = command == "compare" || command == "stress-test";
+  const std::map<std::string, std::string> flag_of_kind = {{"solver", takes_a_list ? "--solvers" : "--solver"},
+                                                           {"family", "--families"}};
   const auto flag = flag_of_kind.find(e.kind());
   return "tensegrity: command line: " + (flag == flag_of_kind.end() ? "--" + e.kind() : flag->second) + " " +
          e.name() + ": " + e.reason();

@@ -15,8 +15,9 @@ namespace tensegrity::reports {
 // the option, the command line names the flag that gave it.
 std::string option_error_line(const OptionError& e);
 // The one line the program prints for a name no registry knows: the library
-// names the kind of name, the command line the flag that gave it.
-std::string unknown_name_line(const UnknownNameError& e);
+// names the kind of name, the command line the flag that gave it (`command`:
+// the subcommand that ran; `compare` and `stress-test` take --solvers).
+std::string unknown_name_line(const UnknownNameError& e, std::string_view command = "");
 
 // One-line human summary of a solve, for standard error.
 std::string summary_line(const Structure& scene, std::string_view solver, const SolveResult& r);

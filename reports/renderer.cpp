@@ -48,9 +48,11 @@ Colour blend(const Colour& a, const Colour& b, double t) {
 const Colour kZeroForce{0.78, 0.78, 0.78}, kCompression{0.05, 0.2, 0.75}, kTension{0.75, 0.05, 0.05};
 const Colour kStrutPlain{0.15, 0.2, 0.45}, kCablePlain{0.85, 0.45, 0.1}, kSlack{0.6, 0.6, 0.6};
 const Colour kInk{0, 0, 0}, kGround{0.7, 0.7, 0.7}, kFaint{0.82, 0.82, 0.86};
-const Colour kBlockColours[] = {{0.12, 0.47, 0.71}, {1.0, 0.5, 0.05}, {0.17, 0.63, 0.17}, {0.84, 0.15, 0.16},
+// Sixteen distinguishable hues (the scorpion has 12 blocks); beyond that they repeat.
+const Colour kBlockColours[] = {{0.12, 0.47, 0.71}, {1.0, 0.5, 0.05},   {0.17, 0.63, 0.17}, {0.84, 0.15, 0.16},
                                 {0.58, 0.4, 0.74},  {0.55, 0.34, 0.29}, {0.89, 0.47, 0.76}, {0.74, 0.74, 0.13},
-                                {0.09, 0.75, 0.81}};
+                                {0.09, 0.75, 0.81}, {0.0, 0.0, 0.5},    {0.5, 0.5, 0.0},    {0.0, 0.5, 0.5},
+                                {0.5, 0.0, 0.0},    {0.4, 0.8, 0.4},    {1.0, 0.8, 0.2},    {0.6, 0.6, 1.0}};
 
 // Diverging force scale: t in [-1, 1].
 Colour force_scale_colour(double t) {

@@ -93,6 +93,19 @@ TEST_F(CliBadInput, UnknownSolverAndFamilyNameTheirFlags) {
   EXPECT_EQ(solve.err,
             "tensegrity: command line: --solver nope: unknown backend (known: alternating, alternating-gn, "
             "eq5-newton, ipopt, nlopt)\n");
+  // compare and stress-test take a list: their flag is --solvers.
+  for (const char* command : {"compare", "stress-test"}) {
+    const std::vector<std::string> args =
+        std::string(command) == "compare"
+            ? std::vector<std::string>{command, scene, "--solvers", "alternating,nope", "--out", out + ".d"}
+            : std::vector<std::string>{command, "--solvers", "alternating,nope", "--out", out};
+    const ProgramRun listed = run(args);
+    EXPECT_EQ(listed.exit_status, 2) << command;
+    EXPECT_EQ(listed.err,
+              "tensegrity: command line: --solvers nope: unknown backend (known: alternating, alternating-gn, "
+              "eq5-newton, ipopt, nlopt)\n")
+        << command;
+  }
   const ProgramRun stress = run({"stress-test", "--families", "nope", "--out", out});
   EXPECT_EQ(stress.exit_status, 2);
   EXPECT_EQ(stress.err,
