@@ -113,7 +113,8 @@ void bind_simulate(py::module_& m) {
 
   m.def("_render",
         [](const Structure& scene, py::object positions, py::object forces, const std::string& path,
-           const std::string& view, int width, int height, const std::string& title) {
+           const std::string& view, int width, int height, const std::string& title, bool reference,
+           const std::string& colour_by, bool labels, bool legend) {
           constexpr int kMinPixels = 64, kMaxPixels = 8192;
           if (width < kMinPixels || width > kMaxPixels)
             throw InputError("command line", "--width", "must be within 64..8192");
@@ -124,6 +125,9 @@ void bind_simulate(py::module_& m) {
           options.width = width;
           options.height = height;
           options.title = title;
+          options.colour_by = colour_by;
+          options.labels = labels;
+          options.legend = legend;
           Eigen::Matrix3Xd p = scene.positions;
           if (!positions.is_none()) {
             auto a = py::array_t<double, py::array::forcecast>::ensure(positions);
@@ -140,11 +144,16 @@ void bind_simulate(py::module_& m) {
             f = Eigen::VectorXd(scene.num_elements());
             for (int k = 0; k < scene.num_elements(); ++k) (*f)(k) = a.at(k);
           }
+          reports::RenderData data;
+          data.forces = f;
+          // As `render SCENE SOLUTION`: the shape before form finding behind a result.
+          if (!positions.is_none() && reference) data.reference = scene.positions;
           py::gil_scoped_release release;
-          reports::render_scene(scene, p, f, options, path);
+          reports::render_structure(scene, p, data, options, path);
         },
         py::arg("scene"), py::arg("positions"), py::arg("forces"), py::arg("path"), py::arg("view"),
-        py::arg("width"), py::arg("height"), py::arg("title"));
+        py::arg("width"), py::arg("height"), py::arg("title"), py::arg("reference"), py::arg("colour_by"),
+        py::arg("labels"), py::arg("legend"));
 }
 
 }  // namespace tensegrity::python

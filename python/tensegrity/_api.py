@@ -1,6 +1,7 @@
 """The commands of the `tensegrity` program as functions (solve, forces, check,
 render, simulate, design): same validation, same messages, same files."""
 import math
+import numbers
 import os
 
 from . import _core
@@ -110,10 +111,14 @@ def read_solution(scene, path):
     return _core._read_solution(_as_scene(scene), os.fspath(path))
 
 
-def render(scene, path, result=None, view="iso", width=1200, height=900, title=""):
+def render(scene, path, result=None, view="iso", width=1200, height=900, title="", reference=True,
+           colour_by="force", labels=False, legend=True):
     """Draws a scene, or a solution of it coloured by its forces, to PNG or SVG
     by the extension of ``path`` (``tensegrity render``). ``result`` is a
-    Result or a solution file's path."""
+    Result or a solution file's path; with it, ``reference`` draws the scene's
+    own shape faintly behind (the command's default; ``--no-reference``).
+    ``colour_by``: force, strain, block or kind; ``labels``: node and element
+    ids; ``legend``: key, colour bar, scale bar and axes."""
     scene = _as_scene(scene)
     positions = forces_ = None
     if isinstance(result, _core.Result):
@@ -121,9 +126,10 @@ def render(scene, path, result=None, view="iso", width=1200, height=900, title="
     elif result is not None:
         solution = read_solution(scene, result)
         positions, forces_ = solution["positions"], solution["forces"]
-    if not (isinstance(width, int) and isinstance(height, int)):
+    if not (isinstance(width, numbers.Integral) and isinstance(height, numbers.Integral)):
         raise TypeError("width and height are integers (pixels)")
-    _core._render(scene, positions, forces_, os.fspath(path), str(view), width, height, str(title))
+    _core._render(scene, positions, forces_, os.fspath(path), str(view), int(width), int(height), str(title),
+                  bool(reference), str(colour_by), bool(labels), bool(legend))
     return os.fspath(path)
 
 

@@ -230,6 +230,19 @@ def test_render_writes_a_png(tmp_path):
         tg.render(scene, tmp_path / "q.png", width=10)
 
 
+@pytest.mark.parametrize("reference", [True, False])
+def test_render_svg_equals_the_program(cli, tmp_path, reference):
+    scene_file, solution_file = tmp_path / "p.scene.json", tmp_path / "p.solution.json"
+    scene = tg.prism(4, twist_offset=0.1)
+    scene.save(scene_file)
+    tg.solve(scene, solver="alternating-gn").save(solution_file)
+    tg.render(scene, tmp_path / "py.svg", result=solution_file, reference=reference, labels=True)
+    subprocess.run([cli, "render", str(scene_file), "--solution", str(solution_file), "--labels",
+                    "--out", str(tmp_path / "cli.svg")] + ([] if reference else ["--no-reference"]),
+                   capture_output=True, check=True)
+    assert (tmp_path / "py.svg").read_bytes() == (tmp_path / "cli.svg").read_bytes()
+
+
 def test_character_builds_like_the_program(cli, root, tmp_path):
     character = root / "data" / "characters" / "duck.character.json"
     out = tmp_path / "duck.scene.json"
