@@ -10,6 +10,7 @@
 #include "reports/renderer.hpp"
 #include "model/design.hpp"
 #include "model/errors.hpp"
+#include "model/json_io.hpp"
 #include "model/scene_io.hpp"
 #include "model/solution.hpp"
 
@@ -28,35 +29,46 @@ std::pair<Eigen::Matrix3Xd, Eigen::VectorXd> read_frame(const std::string& path,
                                                         double* time) {
   std::istringstream in(read_text_file(path));
   std::string line, chosen;
-  int count = 0;
-  while (std::getline(in, line))
-    if (!line.empty()) {
-      if (count == index || index < 0) chosen = line;
-      ++count;
-    }
+  int count = 0, line_number = 0, chosen_line = 0, chosen_frame = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (line.empty()) continue;
+    if (count == index || index < 0) chosen = line, chosen_line = line_number, chosen_frame = count;
+    ++count;
+  }
   if (chosen.empty())
     throw InputError(path, "--frame " + std::to_string(index), "no such frame (" + std::to_string(count) + " frames)");
+  // Items name the file's line and the frame (0-based), as the JSON Lines file counts them.
+  const std::string where = "line " + std::to_string(chosen_line) + " (frame " + std::to_string(chosen_frame) + ")";
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(chosen);
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(path, "frame", e.what());
+    j = parse_json_text(chosen, path);
+  } catch (const InputError& e) {
+    // The parser saw one line: its "line 1, column C" is the file's line and column C.
+    const std::string line_one = "line 1, ";
+    const std::string column = e.item().rfind(line_one, 0) == 0 ? e.item().substr(line_one.size()) : e.item();
+    throw InputError(path, where + ", " + column, e.reason());
   }
-  if (!j.contains("positions") || !j["positions"].is_array() || j["positions"].size() != static_cast<std::size_t>(s.num_nodes()))
-    throw InputError(path, "positions", "not one position per node of the design");
+  if (!j.is_object() || !j.contains("positions") || !j["positions"].is_array() ||
+      j["positions"].size() != static_cast<std::size_t>(s.num_nodes()))
+    throw InputError(path, where + ": positions", "not one position per node of the design");
   if (!j.contains("forces") || !j["forces"].is_array() || j["forces"].size() != static_cast<std::size_t>(s.num_elements()))
-    throw InputError(path, "forces", "not one force per element of the design");
+    throw InputError(path, where + ": forces", "not one force per element of the design");
   Eigen::Matrix3Xd x(3, s.num_nodes());
   Eigen::VectorXd f(s.num_elements());
-  try {
-    for (int i = 0; i < s.num_nodes(); ++i)
-      for (int k = 0; k < 3; ++k) x(k, i) = j["positions"][i].at(k).get<double>();
-    for (int e = 0; e < s.num_elements(); ++e) f[e] = j["forces"][e].get<double>();
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(path, "frame", e.what());
+  const auto number = [&](const nlohmann::json& v, const std::string& item) {
+    if (!v.is_number()) throw InputError(path, where + ": " + item, "expected a number, got " + json_describe(v));
+    return v.get<double>();
+  };
+  for (int i = 0; i < s.num_nodes(); ++i) {
+    const nlohmann::json& p = j["positions"][i];
+    const std::string item = "positions[" + std::to_string(i) + "]";
+    if (!p.is_array() || p.size() != 3) throw InputError(path, where + ": " + item, "expected 3 numbers");
+    for (int k = 0; k < 3; ++k) x(k, i) = number(p[k], item);
   }
-  if (!x.allFinite() || !f.allFinite()) throw InputError(path, "frame", "non-finite number");
-  *time = j.value("time", 0.0);
+  for (int e = 0; e < s.num_elements(); ++e) f[e] = number(j["forces"][e], "forces[" + std::to_string(e) + "]");
+  if (!x.allFinite() || !f.allFinite()) throw InputError(path, where, "non-finite number");
+  *time = j.contains("time") ? number(j["time"], "time") : 0.0;
   return {x, f};
 }
 

@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -189,6 +191,25 @@ TEST(CliRender, SvgKeepsTextAndElementNames) {
   EXPECT_NE(text.find("data-element=\"body."), std::string::npos);
   EXPECT_NE(text.find(">scale</text>"), std::string::npos);
   EXPECT_EQ(text.find("<glyph"), std::string::npos);
+}
+
+// A broken frames file: one line naming the file, its line and frame and
+// the place, exit status 2, no picture.
+TEST(CliRender, BrokenFrameNamesItsLineAndFrame) {
+  ScratchDir dir("cli-render");
+  const std::string scene = kSource + "/data/reference/prism-3-gravity.scene.json", design = dir.file("p.design.json");
+  const std::string frames = dir.file("frames.jsonl"), broken = dir.file("broken.jsonl"), png = dir.file("f.png");
+  ASSERT_EQ(dir.run({"design", scene, "--out", design, "--quiet"}).exit_status, 0);
+  ASSERT_EQ(dir.run({"simulate", design, "--steps", "3", "--out", frames, "--no-vtk"}).exit_status, 0);
+  std::istringstream lines(testing::read_text(frames));
+  std::string line, text;
+  for (int k = 0; std::getline(lines, line); ++k) text += (k == 2 ? line.substr(0, 20) : line) + "\n";
+  std::ofstream(broken) << text;
+  const auto r = dir.run({"render", design, "--frames", broken, "--frame", "2", "--out", png});
+  EXPECT_EQ(r.exit_status, 2);
+  EXPECT_TRUE(testing::is_one_line(r.err)) << r.err;
+  EXPECT_EQ(r.err.rfind("tensegrity: " + broken + ": line 3 (frame 2), column 21: malformed JSON", 0), 0u) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(png));
 }
 
 }  // namespace
