@@ -162,17 +162,20 @@ int run_design(const DesignArgs& a) {
   // --sheet it goes beside the design, with the printable cut list.
   const std::string sheet = a.sheet.empty() ? default_sheet_path(a.out, ".sheet.csv") : a.sheet;
   const std::string cut_list = default_sheet_path(sheet == "-" ? a.out : sheet, ".cutlist.svg");
+  const std::string printable = default_sheet_path(sheet == "-" ? a.out : sheet, ".cutlist.pdf");
   if (!sheet.empty()) write_text_file_atomically(sheet, reports::fabrication_sheet_csv(d, rest.lengths));
   if (sheet.empty())
     std::cerr << "design: no fabrication sheet: the design goes to standard output, so there is no place beside "
                  "it; pass --sheet FILE.csv\n";
   try {
     if (!cut_list.empty()) reports::write_cut_list(d, rest.lengths, cut_list);
+    if (!printable.empty()) reports::write_cut_list(d, rest.lengths, printable);
     write_design_file(d, a.out);
   } catch (...) {
     std::error_code ec;
     if (!sheet.empty() && sheet != "-") std::filesystem::remove(sheet, ec);
     if (!cut_list.empty()) std::filesystem::remove(cut_list, ec);
+    if (!printable.empty()) std::filesystem::remove(printable, ec);
     throw;
   }
 
@@ -203,7 +206,7 @@ void register_design_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--tol", args->tol, "Relative residual for form finding and verification");
   cmd->add_option("--time-limit", args->time_limit, "Form-finding wall-clock budget in seconds");
   cmd->add_option("--out", args->out, "Design file to write, - for standard output")->required();
-  cmd->add_option("--sheet", args->sheet, "Fabrication sheet (CSV; default: beside the design, NAME.sheet.csv, with NAME.cutlist.svg)");
+  cmd->add_option("--sheet", args->sheet, "Fabrication sheet (CSV; default: beside the design, NAME.sheet.csv, with NAME.cutlist.svg and .pdf)");
   cmd->add_flag("--compare-naive", args->compare_naive,
                 "Settle the design and the constant-fraction baseline under gravity for a sweep of fractions "
                 "(default: 10 fractions over the materials' strain range 0.05..max) and report the displacements");

@@ -1,5 +1,6 @@
 #include "reports/canvas.hpp"
 
+#include <cairo-pdf.h>
 #include <cairo.h>
 
 #include <cmath>
@@ -159,9 +160,53 @@ std::string Canvas::svg_text() const {
   return o.str();
 }
 
+namespace {
+
+cairo_status_t append_bytes(void* closure, const unsigned char* data, unsigned int length) {
+  static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+  return CAIRO_STATUS_SUCCESS;
+}
+
+}  // namespace
+
 std::string Canvas::png_bytes() const {
   cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width_, height_);
   cairo_t* cr = cairo_create(surface);
+  draw(cr);
+  cairo_destroy(cr);
+  cairo_surface_flush(surface);
+  std::string bytes;
+  const cairo_status_t status = cairo_surface_write_to_png_stream(surface, append_bytes, &bytes);
+  cairo_surface_destroy(surface);
+  if (status != CAIRO_STATUS_SUCCESS)
+    throw std::runtime_error(std::string("cannot encode the PNG: ") + cairo_status_to_string(status));
+  return bytes;
+}
+
+std::string Canvas::pdf_bytes(const std::vector<Canvas>& pages) {
+  std::string bytes;
+  if (pages.empty()) return bytes;
+  cairo_surface_t* surface = cairo_pdf_surface_create_for_stream(append_bytes, &bytes, kPointsPerPixel * pages[0].width_,
+                                                                 kPointsPerPixel * pages[0].height_);
+  cairo_t* cr = cairo_create(surface);
+  for (const Canvas& page : pages) {
+    cairo_pdf_surface_set_size(surface, kPointsPerPixel * page.width_, kPointsPerPixel * page.height_);
+    cairo_save(cr);
+    cairo_scale(cr, kPointsPerPixel, kPointsPerPixel);
+    page.draw(cr);
+    cairo_restore(cr);
+    cairo_show_page(cr);
+  }
+  cairo_destroy(cr);
+  cairo_surface_finish(surface);
+  const cairo_status_t status = cairo_surface_status(surface);
+  cairo_surface_destroy(surface);
+  if (status != CAIRO_STATUS_SUCCESS)
+    throw std::runtime_error(std::string("cannot encode the PDF: ") + cairo_status_to_string(status));
+  return bytes;
+}
+
+void Canvas::draw(cairo_t* cr) const {
   cairo_set_source_rgb(cr, 1, 1, 1);
   cairo_paint(cr);
   cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
@@ -212,18 +257,6 @@ std::string Canvas::png_bytes() const {
       }
     }
   }
-  cairo_destroy(cr);
-  cairo_surface_flush(surface);
-  std::string bytes;
-  const cairo_write_func_t append = [](void* closure, const unsigned char* data, unsigned int length) {
-    static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
-    return CAIRO_STATUS_SUCCESS;
-  };
-  const cairo_status_t status = cairo_surface_write_to_png_stream(surface, append, &bytes);
-  cairo_surface_destroy(surface);
-  if (status != CAIRO_STATUS_SUCCESS)
-    throw std::runtime_error(std::string("cannot encode the PNG: ") + cairo_status_to_string(status));
-  return bytes;
 }
 
 void Canvas::write(const std::string& path) const {

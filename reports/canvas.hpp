@@ -2,10 +2,13 @@
 // A small 2-D drawing list written either as PNG (rasterised by Cairo) or as
 // SVG written directly, so that text stays text (Cairo's SVG surface turns it
 // into glyph outlines) and shapes can carry attributes such as element ids.
-// Coordinates are pixels, origin top left, y down.
+// Coordinates are pixels, origin top left, y down. Several canvases make the
+// pages of one PDF.
 #include <map>
 #include <string>
 #include <vector>
+
+typedef struct _cairo cairo_t;  // Cairo stays out of the includes of this header
 
 namespace tensegrity::reports {
 
@@ -40,6 +43,10 @@ class Canvas {
   // temporary file and a rename. Throws std::runtime_error when writing fails.
   void write(const std::string& path) const;
   std::string svg_text() const;
+  // A multi-page PDF, one page per canvas, 1 px = 0.75 pt (96 dpi): a
+  // 794 x 1123 px canvas is an A4 page.
+  static std::string pdf_bytes(const std::vector<Canvas>& pages);
+  static constexpr double kPointsPerPixel = 0.75;
 
   // Approximate width of a text in px (for layout; sans-serif average).
   static double text_width(const std::string& s, double size) { return 0.55 * size * static_cast<double>(s.size()); }
@@ -62,6 +69,7 @@ class Canvas {
     shapes_.push_back(std::move(s));
   }
   std::string png_bytes() const;  // the picture encoded as PNG
+  void draw(cairo_t* cr) const;   // onto a Cairo context, in px
 
   int width_, height_;
   std::vector<Shape> shapes_;

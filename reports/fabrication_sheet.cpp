@@ -6,6 +6,7 @@
 #include <sstream>
 #include <vector>
 
+#include "model/text_file.hpp"
 #include "reports/canvas.hpp"
 #include "reports/exporters.hpp"
 
@@ -102,33 +103,74 @@ std::string fabrication_sheet_csv(const Design& d, const Eigen::VectorXd& length
   return out.str();
 }
 
-void write_cut_list(const Design& d, const Eigen::VectorXd& lengths, const std::string& path) {
+namespace {
+
+// The cut list's layout in px (96 dpi): 794 x 1123 px is an A4 page.
+constexpr double kCutListRow = 18, kCutListWidth = 794, kCutListLeft = 40, kCutListTop = 40;
+constexpr double kA4Height = 1123, kBottomMargin = 50;
+constexpr double kBarLength = 260;  // px of the longest element's bar
+
+// Rows placed one after another on one tall canvas, or on pages of a fixed
+// height (each continued page headed by the title).
+class CutListPages {
+ public:
+  // paged: a new page when a row would pass the bottom margin; otherwise one
+  // canvas of page_height, which must hold every row.
+  CutListPages(std::string title, double page_height, bool paged)
+      : title_(std::move(title)), page_height_(page_height), paged_(paged) {
+    new_page();
+  }
+  // The y of a row of height h (px) times `rows_kept_together` rows, on this page or the next.
+  double place(double h, int rows_kept_together = 1) {
+    if (paged_ && y_ + h * rows_kept_together > page_height_ - kBottomMargin) new_page();
+    const double at = y_;
+    y_ += h;
+    return at;
+  }
+  Canvas& canvas() { return pages_.back(); }
+  std::vector<Canvas> take() { return std::move(pages_); }
+
+ private:
+  void new_page() {
+    const bool continued = !pages_.empty();
+    pages_.emplace_back(static_cast<int>(kCutListWidth), static_cast<int>(page_height_));
+    y_ = kCutListTop;
+    pages_.back().text(kCutListLeft, y_, title_ + (continued ? " (continued)" : ""), 15, Colour{0, 0, 0});
+    y_ += kCutListRow * 1.5;
+  }
+  std::string title_;
+  double page_height_, y_ = 0;
+  bool paged_;
+  std::vector<Canvas> pages_;
+};
+
+std::vector<Canvas> lay_out_cut_list(const Design& d, const Eigen::VectorXd& lengths, double page_height,
+                                     bool paged) {
   const Structure& s = d.structure;
   const auto groups = assembly_groups(s);
-  constexpr double kRow = 18, kWidth = 794, kLeft = 40;  // px; 794 px = A4 width at 96 dpi
   const double longest = std::max(lengths.maxCoeff(), 1e-9);
-  const double bar_scale = 260.0 / longest;  // px per metre
-  const int rows = s.num_elements() + 3 * static_cast<int>(groups.size()) + 8;
-  Canvas c(static_cast<int>(kWidth), static_cast<int>(rows * kRow + 80));
+  const double bar_scale = kBarLength / longest;  // px per metre
   const Colour ink{0, 0, 0}, strut_colour{0.15, 0.2, 0.45}, cable_colour{0.75, 0.3, 0.05}, grey{0.4, 0.4, 0.4};
-  double y = 40;
-  c.text(kLeft, y, "Cut list: " + s.name + " (lengths in mm; struts: cut length, cables: rest length to tie)", 15, ink);
-  y += kRow * 1.5;
+  CutListPages pages("Cut list: " + s.name + " (lengths in mm; struts: cut length, cables: rest length to tie)",
+                     page_height, paged);
+  const double left = kCutListLeft;
   for (const AssemblyGroup& g : groups) {
-    c.text(kLeft, y, g.kind + " " + g.id, 13, ink);
-    y += kRow;
+    // A group's heading stays with its first rows.
+    constexpr int kHeadingWithRows = 3;
+    pages.canvas().text(left, pages.place(kCutListRow, kHeadingWithRows), g.kind + " " + g.id, 13, ink);
     for (int e : g.elements) {
       const bool strut = s.elements[e].kind == ElementKind::Strut;
       const double shown = strut ? lengths[e] : (*d.solution.rest_lengths)[e];
+      const double y = pages.place(kCutListRow);
+      Canvas& c = pages.canvas();
       c.set_attributes({{"data-element", element_name(s, e)}, {"data-index", std::to_string(e)}});
-      c.text(kLeft + 10, y, element_name(s, e), 11, ink);
-      c.text(kLeft + 230, y, strut ? "strut" : "cable " + d.cable_material[e], 11, grey);
-      c.text(kLeft + 420, y, millimetres(shown), 11, ink, TextAnchor::End);
-      c.rectangle(kLeft + 435, y - 8, shown * bar_scale, strut ? 6 : 2, strut ? strut_colour : cable_colour);
+      c.text(left + 10, y, element_name(s, e), 11, ink);
+      c.text(left + 230, y, strut ? "strut" : "cable " + d.cable_material[e], 11, grey);
+      c.text(left + 420, y, millimetres(shown), 11, ink, TextAnchor::End);
+      c.rectangle(left + 435, y - 8, shown * bar_scale, strut ? 6 : 2, strut ? strut_colour : cable_colour);
       c.clear_attributes();
-      y += kRow;
     }
-    y += kRow * 0.5;
+    pages.place(kCutListRow * 0.5);
   }
   int struts = 0;
   double strut_total = 0.0;
@@ -136,14 +178,30 @@ void write_cut_list(const Design& d, const Eigen::VectorXd& lengths, const std::
   for (int e = 0; e < s.num_elements(); ++e)
     if (s.elements[e].kind == ElementKind::Strut) ++struts, strut_total += lengths[e];
     else ++cords[d.cable_material[e]].first, cords[d.cable_material[e]].second += (*d.solution.rest_lengths)[e];
-  c.text(kLeft, y, "totals: " + std::to_string(struts) + " struts, " + millimetres(strut_total) + " mm of tube", 13, ink);
-  y += kRow;
-  for (const auto& [name, t] : cords) {
-    c.text(kLeft, y, "        " + std::to_string(t.first) + " cables of " + name + ", " + millimetres(t.second) +
-                         " mm of cord at rest (plus knots)", 13, ink);
-    y += kRow;
+  const int total_rows = 1 + static_cast<int>(cords.size());
+  pages.canvas().text(left, pages.place(kCutListRow, total_rows),
+                      "totals: " + std::to_string(struts) + " struts, " + millimetres(strut_total) + " mm of tube", 13,
+                      ink);
+  for (const auto& [name, t] : cords)
+    pages.canvas().text(left, pages.place(kCutListRow),
+                        "        " + std::to_string(t.first) + " cables of " + name + ", " + millimetres(t.second) +
+                            " mm of cord at rest (plus knots)",
+                        13, ink);
+  return pages.take();
+}
+
+}  // namespace
+
+void write_cut_list(const Design& d, const Eigen::VectorXd& lengths, const std::string& path) {
+  if (path.size() >= 4 && path.compare(path.size() - 4, 4, ".pdf") == 0) {
+    write_text_file_atomically(path, Canvas::pdf_bytes(lay_out_cut_list(d, lengths, kA4Height, true)));
+    return;
   }
-  c.write(path);
+  // One canvas as tall as the list (SVG for the screen, PNG).
+  const Structure& s = d.structure;
+  const int rows = s.num_elements() + 3 * static_cast<int>(assembly_groups(s).size()) + 8;
+  std::vector<Canvas> one = lay_out_cut_list(d, lengths, rows * kCutListRow + 80, false);
+  one.front().write(path);
 }
 
 }  // namespace tensegrity::reports

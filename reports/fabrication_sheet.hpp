@@ -15,7 +15,8 @@
 // struts) and one "total,,,,cable,,,MATERIAL" row per material (count, summed
 // stretched and rest length).
 //
-// The cut list (SVG, printable) shows the same rows, each with a bar to scale.
+// The cut list shows the same rows, each with a bar to scale: as PDF on A4
+// pages for printing, or as one tall SVG (or PNG) for the screen.
 #include <Eigen/Core>
 #include <string>
 
@@ -25,7 +26,7 @@ namespace tensegrity::reports {
 
 // `lengths`: the stretched length of every element at the designed geometry (m).
 std::string fabrication_sheet_csv(const Design& d, const Eigen::VectorXd& lengths);
-// Writes the cut list to `path` (.svg or .png).
+// Writes the cut list to `path` (.pdf on A4 pages, .svg or .png on one).
 void write_cut_list(const Design& d, const Eigen::VectorXd& lengths, const std::string& path);
 
 }  // namespace tensegrity::reports

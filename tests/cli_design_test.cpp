@@ -10,6 +10,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -118,6 +119,17 @@ TEST(CliDesign, CharacterGivesTheDesignAndTheSheetInAssemblyOrder) {
   const std::string cut_list = testing::read_text(dir.file("puppy.cutlist.svg"));
   EXPECT_NE(cut_list.find("<text"), std::string::npos);
   EXPECT_EQ(std::count(cut_list.begin(), cut_list.end(), '\n') > 291, true);
+  // And on A4 pages as PDF: 291 element rows, 17 group headings with their
+  // gaps and the totals, 18 px a row on 1123 px pages (67 px for the title,
+  // 50 px bottom margin, about 56 rows a page), fill six pages; every page
+  // is A4 (595.5 x 842.25 pt).
+  const std::string pdf = testing::read_text(dir.file("puppy.cutlist.pdf"));
+  EXPECT_EQ(pdf.rfind("%PDF-", 0), 0u);
+  const std::regex page(R"(/Type /Page[^s])"), a4(R"(/MediaBox \[ 0 0 595\.5 842\.25 \])");
+  const auto pages = std::distance(std::sregex_iterator(pdf.begin(), pdf.end(), page), std::sregex_iterator());
+  const auto a4_pages = std::distance(std::sregex_iterator(pdf.begin(), pdf.end(), a4), std::sregex_iterator());
+  EXPECT_EQ(pages, 6);
+  EXPECT_EQ(a4_pages, pages);
 
   // relax and simulate need nothing but the design file.
   const ProgramRun relax = dir.run({"relax", design, "--out", dir.file("relaxed.solution.json")});

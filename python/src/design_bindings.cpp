@@ -199,7 +199,7 @@ everything else raises RuntimeError with it, as the command writes no file.)doc"
            [](const PyDesign& r, const std::filesystem::path& path) {
              reports::write_cut_list(r.design(), r.outcome.rest.lengths, path.string());
            },
-           py::arg("path"), "Writes the printable cut list (.svg or .png).")
+           py::arg("path"), "Writes the cut list: .pdf on A4 pages (printable), .svg or .png on one page.")
       .def("sheet_csv",
            [](const PyDesign& r) { return reports::fabrication_sheet_csv(r.design(), r.outcome.rest.lengths); },
            "The fabrication sheet's text.")
