@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -44,6 +45,11 @@ constexpr int kColdIterationsPerWarmIteration = 5;
 // converges in tens of iterations or not at all, and the run from the scene
 // then needs the time.
 constexpr int kWarmIterationsAtMost = 300;
+// start=auto: and at most this share of the time limit, so that a warm run
+// wandering at a high cost per iteration (the 40-layer tower without gravity:
+// 0.44 s an iteration from the equilibrium, 0.06 s from the scene) leaves the
+// run from the scene its time.
+constexpr double kWarmTimeShare = 0.5;
 // start=auto: a warm answer that moves the scene by less than this share of
 // the mean element length is the scene itself to round-off (the change cannot
 // be negative), so no run from the scene can end closer.
@@ -205,9 +211,12 @@ struct Eq5Runner {
   int evaluations() const { return recorder.trace().empty() ? 0 : recorder.trace().back().evaluations; }
 
   // Runs `nlp` from `start` (the scene with sigma0 when null) for at most
-  // `max_iterations`. `record_first`: whether its iteration 0 is a new record
-  // (not when it repeats the point the trace ends at).
-  Eq5Run run(MinimalGeometryChangeNlp& nlp, const Eq5Start* start, int max_iterations, bool record_first) {
+  // `max_iterations`, and until `stop_at_seconds` of the solve's clock (a
+  // TimeLimit status then, as at the time limit). `record_first`: whether
+  // its iteration 0 is a new record (not when it repeats the point the trace
+  // ends at).
+  Eq5Run run(MinimalGeometryChangeNlp& nlp, const Eq5Start* start, int max_iterations, bool record_first,
+             double stop_at_seconds = std::numeric_limits<double>::infinity()) {
     DimensionlessEq5 problem(nlp, sigma0);
     if (start != nullptr) problem.set_start(nlp.equilibrium().free_nodes().gather(start->positions), start->forces);
     IpoptSettings run_settings = settings;
@@ -221,7 +230,8 @@ struct Eq5Runner {
         p.evaluations += evaluation_offset;
         recorder.record(p);
       }
-      return recorder.out_of_time() ? IterationControl::StopForTimeLimit : IterationControl::Continue;
+      return recorder.out_of_time() || recorder.seconds() > stop_at_seconds ? IterationControl::StopForTimeLimit
+                                                                             : IterationControl::Continue;
     };
     const IpoptSolveResult native = solve_with_ipopt(problem, run_settings);
     Eq5Run r;
@@ -326,15 +336,18 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       for (const TracePoint& p : equilibrium.trace) recorder.record(p);
       const int warm_budget =
           ipopt_options.start == IpoptStart::Auto ? std::min(budget, kWarmIterationsAtMost) : budget;
+      const double warm_until = ipopt_options.start == IpoptStart::Auto
+                                    ? kWarmTimeShare * options.time_limit_s
+                                    : std::numeric_limits<double>::infinity();
       const Eq5Start from{equilibrium.positions, equilibrium.forces};
-      warm = runner.run(nlp, &from, warm_budget, false);
+      warm = runner.run(nlp, &from, warm_budget, false, warm_until);
       start_note = " (started from alternating-gn's equilibrium after " +
                    std::to_string(equilibrium.stats.iterations) + " iterations)";
     }
     if (ipopt_options.start == IpoptStart::AlternatingGn && have_equilibrium) {
       ipopt_iterations = warm.iterations;
       held = std::move(warm);
-    } else if (have_equilibrium && warm.status == Status::TimeLimit) {
+    } else if (have_equilibrium && warm.status == Status::TimeLimit && recorder.out_of_time()) {
       // No time left for a run from the scene: the warm run's last point.
       ipopt_iterations = warm.iterations;
       held = std::move(warm);
