@@ -4,6 +4,8 @@
 // web app on 127.0.0.1 only, its files (web/, three.js from web/node_modules)
 // served by this process, and a JSON API under /api/ (docs/WEB.md) that calls
 // the same library as the other commands: no solver logic runs in the page.
+// One file past 500 lines: every route shares the WebApp's state (input,
+// simulation sessions, their locks), which stays private to it.
 //
 // Bad requests get 400 and the one line the CLI would print for the same
 // input ("tensegrity: request: ITEM: REASON"); the server keeps serving.

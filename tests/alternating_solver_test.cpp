@@ -1,7 +1,8 @@
 // The alternating backends (faithful Algorithm 1 and Gauss-Newton) on perturbed
 // reference structures: convergence near the tensegrity each was made from, monotone Eq. 4
 // objective, the equilibrium shortcut, statuses and details (scale invariance:
-// tests/every_backend_test.cpp).
+// tests/every_backend_test.cpp). One file past 500 lines: the cases share
+// the perturbed-scene fixtures and the per-scene expectation tables.
 #include "solvers/alternating/alternating_solver.hpp"
 
 #include <cstdio>

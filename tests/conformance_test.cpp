@@ -2,6 +2,8 @@
 // tests/reference/scenes/, judged against the reference optima of Eq. 5 in
 // tests/reference/optima.json (computed once, independently of this code base,
 // by tests/reference/compute_optima.py; see tests/reference/README.md).
+// One file past 500 lines: the suites share the reference loader, the
+// independent equilibrium and sign checks and the expectation table.
 //
 // Nothing here calls model/verify: equilibrium, signs and the geometry change
 // are recomputed below from the scene file and the returned numbers, and the

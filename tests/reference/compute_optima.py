@@ -3,7 +3,8 @@
 Coros, Mani, Thomaszewski, "Interactive Design of Modular Tensegrity
 Characters", SCA 2014) for the conformance suite, computed independently of
 the project's C++ code: plain numpy, dense matrices, Newton's method on the
-KKT system with an active set for the sign bounds.
+KKT system with an active set for the sign bounds. One file past 500 lines:
+it is standalone on purpose (numpy only, no code shared with the project).
 
     min_{x, sigma}  |x - x0|^2            (free nodes; fixed nodes never move)
     s.t.  f_i(x, sigma) = sum_e sigma_e (x_j - x_i) / |x_j - x_i| + m_i g = 0
