@@ -38,7 +38,8 @@ const std::vector<std::string_view>& scene_node_keys() {
 
 const std::vector<std::string_view>& scene_element_keys() {
   static const std::vector<std::string_view> keys = {"kind", "nodes", "mass",     "name",         "block",
-                                                     "block_element", "tie", "link", "material", "target_strain"};
+                                                     "block_element", "tie", "link", "material", "target_strain",
+                                                     "ntrt_tags"};
   return keys;
 }
 
