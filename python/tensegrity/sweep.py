@@ -17,12 +17,12 @@ from ._api import DEFAULT_TIME_LIMIT, _as_scene, _option_text, _prestress_factor
 #: Columns of the DataFrame returned by :func:`sweep`, in order.
 SWEEP_COLUMNS = [
     "scene", "perturbation", "seed", "solver", "status", "seconds", "iterations",
-    "residual", "relative_residual", "geometry_change", "verified",
+    "residual", "relative_residual", "geometry_change", "verified", "message",
 ]
 _DTYPES = {
     "scene": object, "perturbation": object, "seed": "int64", "solver": object, "status": object,
     "seconds": "float64", "iterations": "int64", "residual": "float64",
-    "relative_residual": "float64", "geometry_change": "float64", "verified": "bool",
+    "relative_residual": "float64", "geometry_change": "float64", "verified": "bool", "message": object,
 }
 #: Status of a grid point whose perturbed scene breaks a rule of the model (not solved).
 REJECTED = "rejected"
@@ -96,15 +96,17 @@ def _run_one(task):
             scene = spec(scene, seed)
         elif spec is not None:
             scene = _core.stress_case(scene, spec[0], spec[1], 0, seed)
-    except ValueError:
+    except ValueError as error:
         row.update(status=REJECTED, seconds=0.0, iterations=0, residual=float("nan"),
-                   relative_residual=float("nan"), geometry_change=float("nan"), verified=False)
+                   relative_residual=float("nan"), geometry_change=float("nan"), verified=False,
+                   message=str(error))
         return row
     result = _core._solve(scene, solver, tol, time_limit, max_iterations, prestress_factor, True, False, options)
     stats = result.stats
     row.update(status=result.status, seconds=stats["seconds"], iterations=stats["iterations"],
                residual=stats["residual"], relative_residual=stats["relative_residual"],
-               geometry_change=stats["geometry_change"], verified=bool(result.verify(tol).ok))
+               geometry_change=stats["geometry_change"], verified=bool(result.verify(tol).ok),
+               message=result.message)
     return row
 
 
@@ -174,8 +176,11 @@ def sweep(scenes, solvers, perturbations=None, seeds=None, client=None, time_lim
         As for :func:`solve`.
 
     A perturbed scene that breaks a rule of the model is not solved: its row
-    has status ``"rejected"``. Rows do not depend on where the solves ran;
-    ``seconds`` is the measured solver time and varies between runs.
+    has status ``"rejected"`` and the reason in ``message`` (for a solve, the
+    solver's message). The scene as it is (perturbation None) is solved once
+    per solver, its row repeated under every seed. Rows do not depend on
+    where the solves ran; ``seconds`` is the measured solver time and varies
+    between runs.
     """
     import pandas as pd
 
@@ -190,12 +195,20 @@ def sweep(scenes, solvers, perturbations=None, seeds=None, client=None, time_lim
         _core._check_solver(s, float(tol), limit, int(max_iterations), kappa, backend_options)
     specs = [_perturbation_spec(p) for p in (perturbations if perturbations is not None else [None])]
     seed_list = [int(s) for s in (seeds if seeds is not None else [1])]
-    tasks = [(name, scene, label, spec, seed, s, float(tol), limit, int(max_iterations), kappa, backend_options)
-             for name, scene in named for label, spec in specs for seed in seed_list for s in solver_list]
+    # The scene as it is does not depend on the seed: it is solved once per
+    # (scene, solver), with the first seed, and its row repeated under every seed.
+    grid = [(name, scene, label, spec, seed, seed if spec is not None else seed_list[0], s)
+            for name, scene in named for label, spec in specs for seed in seed_list for s in solver_list]
+    tasks = {}
+    for name, scene, label, spec, _, solve_seed, s in grid:
+        tasks.setdefault((name, label, solve_seed, s), (name, scene, label, spec, solve_seed, s, float(tol), limit,
+                                                        int(max_iterations), kappa, backend_options))
     if client is not None:
-        futures = client.map(_run_on_worker, tasks, pure=False)
-        rows = client.gather(futures)
+        futures = client.map(_run_on_worker, list(tasks.values()), pure=False)
+        solved = client.gather(futures)
     else:
-        rows = _local_rows(tasks, jobs or os.cpu_count() or 1)
+        solved = _local_rows(list(tasks.values()), jobs or os.cpu_count() or 1)
+    row_of = dict(zip(tasks.keys(), solved))
+    rows = [dict(row_of[(name, label, solve_seed, s)], seed=seed) for name, _, label, _, seed, solve_seed, s in grid]
     frame = pd.DataFrame(rows, columns=SWEEP_COLUMNS)
     return frame.astype(_DTYPES)

@@ -151,3 +151,21 @@ def test_a_dask_style_worker_reuses_freed_buffers(root):
     untuned, tuned = (int(x) for x in out.split())
     assert untuned > 1000, out
     assert tuned * 10 < untuned, out
+
+
+def test_unperturbed_scene_is_solved_once_and_rejections_say_why():
+    def self_loop(scene, seed):
+        return tg.Scene(scene.positions, [[0, 0]] + scene.elements.tolist()[1:], scene.kinds, name="broken")
+
+    frame = tg.sweep([tg.prism(4, twist_offset=0.1)], "alternating-gn", perturbations=[None, self_loop],
+                     seeds=[1, 2, 3], jobs=1)
+    assert frame["seed"].tolist() == [1, 2, 3, 1, 2, 3]
+    unperturbed = frame[frame["perturbation"] == "none"]
+    assert (unperturbed["status"] == "converged").all()
+    # One solve, its row under every seed: the same measured seconds.
+    assert unperturbed["seconds"].nunique() == 1 and unperturbed["geometry_change"].iloc[0] > 0
+    rejected = frame[frame["perturbation"] == "self_loop"]
+    assert (rejected["status"] == "rejected").all()
+    assert rejected["message"].tolist() == \
+        ["tensegrity: broken: elements[0].nodes: element joins node 0 to itself"] * 3
+    assert frame["message"].dtype == object
