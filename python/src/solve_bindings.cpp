@@ -11,13 +11,16 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "reports/prestress_factor.hpp"
 #include "reports/output.hpp"
 #include "model/errors.hpp"
+#include "model/scene_io.hpp"
 #include "model/solution.hpp"
+#include "model/status.hpp"
 #include "model/verify.hpp"
 #include "python/src/bindings.hpp"
 
@@ -83,6 +86,77 @@ py::dict trace_dict(const std::vector<TracePoint>& trace) {
   d["geometry_change"] = change;
   d["objective"] = objective;
   return d;
+}
+
+// Backend details carried through pickling as the JSON the solution file holds.
+struct StoredDetails : SolverDetails {
+  explicit StoredDetails(nlohmann::json j) : json(std::move(j)) {}
+  nlohmann::json to_json() const override { return json; }
+  nlohmann::json json;
+};
+
+// A Result as plain Python values (pickle, and so Dask's transfers): the
+// scene as its file's JSON, the numbers as arrays, the details as JSON.
+py::tuple result_state(const PyResult& r) {
+  py::list details;
+  for (const auto& d : r.result.details)
+    if (d) details.append(d->to_json().dump());
+  const SolveResult& x = r.result;
+  const py::tuple stats = py::make_tuple(x.stats.iterations, x.stats.seconds, x.stats.residual,
+                                         x.stats.relative_residual, x.stats.geometry_change);
+  return py::make_tuple(scene_to_json(*r.scene).dump(), r.solver, r.tolerance, std::string(to_string(x.status)),
+                        x.message, x.native_code, positions_array(x.positions), vector_array(x.forces), stats,
+                        trace_dict(x.trace), details);
+}
+
+PyResult result_from_state(const py::tuple& t) {
+  constexpr py::ssize_t kStateSize = 11;
+  if (t.size() != kStateSize) throw std::runtime_error("tensegrity.Result: not a pickled Result");
+  PyResult r;
+  r.scene = std::make_shared<const Structure>(
+      scene_from_json(nlohmann::json::parse(t[0].cast<std::string>()), "pickled Result"));
+  r.solver = t[1].cast<std::string>();
+  r.tolerance = t[2].cast<double>();
+  SolveResult& x = r.result;
+  const std::optional<Status> status = status_from_string(t[3].cast<std::string>());
+  if (!status) throw std::runtime_error("tensegrity.Result: unknown status in a pickled Result");
+  x.status = *status;
+  x.message = t[4].cast<std::string>();
+  x.native_code = t[5].cast<int>();
+  const auto positions = t[6].cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+  x.positions.resize(3, positions.shape(0));
+  for (py::ssize_t i = 0; i < positions.shape(0); ++i)
+    for (int k = 0; k < 3; ++k) x.positions(k, i) = positions.at(i, k);
+  const auto forces = t[7].cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+  x.forces.resize(forces.shape(0));
+  for (py::ssize_t e = 0; e < forces.shape(0); ++e) x.forces(e) = forces.at(e);
+  const auto stats = t[8].cast<py::tuple>();
+  x.stats.iterations = stats[0].cast<int>();
+  x.stats.seconds = stats[1].cast<double>();
+  x.stats.residual = stats[2].cast<double>();
+  x.stats.relative_residual = stats[3].cast<double>();
+  x.stats.geometry_change = stats[4].cast<double>();
+  const auto trace = t[9].cast<py::dict>();
+  const auto column = [&trace](const char* name) {
+    return trace[name].cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+  };
+  const auto seconds = column("seconds"), iteration = column("iteration"), evaluations = column("evaluations"),
+             residual = column("residual"), relative = column("relative_residual"), change = column("geometry_change"),
+             objective = column("objective");
+  for (py::ssize_t i = 0; i < seconds.shape(0); ++i) {
+    TracePoint p;
+    p.seconds = seconds.at(i);
+    p.iteration = static_cast<int>(iteration.at(i));
+    p.evaluations = static_cast<int>(evaluations.at(i));
+    p.residual = residual.at(i);
+    p.relative_residual = relative.at(i);
+    p.geometry_change = change.at(i);
+    p.objective = objective.at(i);
+    x.trace.push_back(p);
+  }
+  for (const py::handle d : t[10].cast<py::list>())
+    x.details.push_back(std::make_shared<const StoredDetails>(nlohmann::json::parse(d.cast<std::string>())));
+  return r;
 }
 
 PyResult run_solve(const Structure& scene, const std::string& solver_name, double tol, double time_limit,
@@ -172,6 +246,7 @@ void bind_solve(py::module_& m) {
       .def("save", [](const PyResult& r, const std::filesystem::path& path) { write_solution_file(r.solution(), path.string()); },
            py::arg("path"), "Writes the solution file, byte for byte what `tensegrity solve --out` writes.")
       .def("to_json", [](const PyResult& r) { return solution_to_json(r.solution()).dump(2); })
+      .def(py::pickle(&result_state, &result_from_state))
       .def("summary", [](const PyResult& r) { return reports::summary_line(*r.scene, r.solver, r.result); },
            "The one-line summary the command line prints on standard error.")
       .def("__repr__", [](const PyResult& r) {

@@ -318,3 +318,28 @@ def test_scene_rejects_indices_that_are_not_integers(elements):
     positions = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
     with pytest.raises(ValueError, match="elements: expected integer node indices"):
         tg.Scene(positions, elements, ["strut"])
+
+
+@pytest.mark.parametrize("solver", ["alternating-gn", "ipopt"])
+def test_result_pickles_to_the_same_solution(tmp_path, solver):
+    result = tg.solve(tg.prism(5, twist_offset=0.1), solver=solver)
+    back = pickle.loads(pickle.dumps(result))
+    assert back.status == result.status and back.solver == result.solver and back.message == result.message
+    assert np.array_equal(back.positions, result.positions) and np.array_equal(back.forces, result.forces)
+    assert back.stats == result.stats
+    assert all(np.array_equal(back.trace[k], result.trace[k]) for k in result.trace)
+    result.save(tmp_path / "a.json")
+    back.save(tmp_path / "b.json")
+    assert (tmp_path / "a.json").read_bytes() == (tmp_path / "b.json").read_bytes()  # details included
+    assert back.verify().ok
+
+
+def test_result_comes_back_from_a_dask_worker():
+    distributed = pytest.importorskip("distributed")
+    scene = tg.prism(4, twist_offset=0.1)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        remote = client.submit(tg.solve, scene, solver="alternating-gn").result()
+    local = tg.solve(scene, solver="alternating-gn")
+    assert remote.status == "converged"
+    assert np.array_equal(remote.positions, local.positions) and np.array_equal(remote.forces, local.forces)
