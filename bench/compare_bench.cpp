@@ -6,8 +6,8 @@
 //
 // Benchmarks are named compare/<scene>/<backend> (reference, perturbed,
 // towers, characters), side-by-side/<scene>/<backend> (the minimal scorpion as
-// built and with 2 % node noise, the 80/500 gravity tower with 2 % noise: the
-// table of docs/figures/side-by-side.md) and scaling/<scene>/<backend> for two parametric
+// built and with 2 % node noise, the 80/500 gravity tower with 2 % noise, the
+// 2 x 7 octahedron grid as built: the table of docs/figures/side-by-side.md) and scaling/<scene>/<backend> for two parametric
 // families: chain-<N> (N face-linked expandable octahedra under gravity,
 // model/character.hpp, nodes moved by seeded noise of 2 % of the strut length)
 // and tower-layers-<L> (see scaling_tower), and gravity-towers/<scene>/<backend>
@@ -240,6 +240,9 @@ std::vector<BenchScene> all_scenes() {
   side_by_side(std::move(minimal_scorpion));
   side_by_side(std::move(noisy_scorpion));
   side_by_side(tower(true));
+  // And a scene far from equilibrium: 14 expandable octahedra on a 2 x 7
+  // grid joined by 8 cables per neighbour pair (572 elements).
+  side_by_side(octahedron_grid(OctahedronGridParameters{}));
   for (int n : config().chain_sizes) v.push_back({"scaling", chain(n)});
   for (int layers : config().tower_layers) v.push_back({"scaling", scaling_tower(layers)});
   return v;

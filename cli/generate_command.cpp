@@ -5,6 +5,8 @@
 // benchmark's large tower (scenes/towers.hpp) as built, before form
 // finding; data/bench/tower-*.scene.json are Ipopt equilibria of it, solved once
 // and stored (docs/USER-GUIDE.md, generate).
+// tensegrity generate grid [--rows R] [--cols C] [--cables-per-join K] --out FILE:
+// expandable octahedra on a grid joined by cables (scenes/towers.hpp).
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -39,6 +41,23 @@ void register_generate_command(CLI::App& app, CommandRunner& run) {
   tw->callback([tower, &run] {
     run = [tower] {
       write_scene_file(scenes::make_prism_tower(tower->p), tower->out);
+      return 0;
+    };
+  });
+  struct GridArgs {
+    scenes::OctahedronGridParameters p;
+    std::string out;
+  };
+  auto grid = std::make_shared<GridArgs>();
+  auto* gr = cmd->add_subcommand("grid", "Expandable octahedra on a grid joined by cables (not in equilibrium)");
+  gr->add_option("--rows", grid->p.rows, "Rows of octahedra")->check(CLI::Range(1, 100));
+  gr->add_option("--cols", grid->p.cols, "Columns of octahedra")->check(CLI::Range(1, 100));
+  gr->add_option("--cables-per-join", grid->p.cables_per_join, "Shortest cables between grid neighbours")
+      ->check(CLI::Range(1, 144));
+  gr->add_option("--out", grid->out, "Scene file to write")->required();
+  gr->callback([grid, &run] {
+    run = [grid] {
+      write_scene_file(scenes::octahedron_grid(grid->p), grid->out);
       return 0;
     };
   });

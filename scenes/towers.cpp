@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -112,6 +113,53 @@ Structure octahedron_chain(int blocks) {
     for (const auto& e : block.elements) s.add_element(e.a + offset, e.b + offset, e.kind);
     if (b > 0) add_face_link(s, face(offset - block.num_nodes(), +1.0), face(offset, -1.0));
   }
+  return s;
+}
+
+namespace {
+
+// Centre distance of grid neighbours in units of the half-length: the nearest
+// nodes of neighbours are then about half a strut length apart.
+constexpr double kGridSpacing = 2.5;
+
+// The k shortest node pairs between blocks starting at offsets a and b
+// (`nodes` nodes each), shortest first, ties by index.
+std::vector<std::pair<int, int>> shortest_pairs(const Structure& s, int a, int b, int nodes, int k) {
+  std::vector<std::tuple<double, int, int>> pairs;
+  for (int i = 0; i < nodes; ++i)
+    for (int j = 0; j < nodes; ++j)
+      pairs.emplace_back((s.positions.col(a + i) - s.positions.col(b + j)).norm(), a + i, b + j);
+  std::sort(pairs.begin(), pairs.end());
+  std::vector<std::pair<int, int>> out;
+  for (int n = 0; n < k && n < static_cast<int>(pairs.size()); ++n)
+    out.emplace_back(std::get<1>(pairs[n]), std::get<2>(pairs[n]));
+  return out;
+}
+
+}  // namespace
+
+Structure octahedron_grid(const OctahedronGridParameters& p) {
+  Structure s;
+  s.name = "octahedron-grid-" + std::to_string(p.rows) + "x" + std::to_string(p.cols);
+  const Structure block = make_expandable_octahedron(OctahedronParameters{});
+  const int nodes = block.num_nodes();
+  const double spacing = kGridSpacing * OctahedronParameters{}.half_length;
+  for (int r = 0; r < p.rows; ++r)
+    for (int c = 0; c < p.cols; ++c) {
+      const int offset = s.num_nodes();
+      for (int i = 0; i < nodes; ++i) s.add_node(block.positions.col(i) + Eigen::Vector3d(c * spacing, r * spacing, 0.0));
+      for (const auto& e : block.elements) s.add_element(e.a + offset, e.b + offset, e.kind);
+    }
+  const auto offset_of = [&](int r, int c) { return (r * p.cols + c) * nodes; };
+  for (int r = 0; r < p.rows; ++r)
+    for (int c = 0; c < p.cols; ++c) {
+      if (c + 1 < p.cols)
+        for (const auto& [a, b] : shortest_pairs(s, offset_of(r, c), offset_of(r, c + 1), nodes, p.cables_per_join))
+          s.add_element(a, b, ElementKind::Cable);
+      if (r + 1 < p.rows)
+        for (const auto& [a, b] : shortest_pairs(s, offset_of(r, c), offset_of(r + 1, c), nodes, p.cables_per_join))
+          s.add_element(a, b, ElementKind::Cable);
+    }
   return s;
 }
 

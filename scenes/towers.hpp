@@ -13,6 +13,12 @@
 // neighbours joined by a face link between the (+,+,+) face of one and the
 // (-,-,-) face of the next (15 blocks: 104 struts and 528 cables). Not in
 // equilibrium as built.
+//
+// Octahedron grid: rows x cols expandable octahedra (half-length 1 m) on a
+// square grid in the x-y plane, centres kGridSpacing apart, each pair of grid
+// neighbours joined by the `cables_per_join` shortest cables between their
+// nodes. The default 2 x 7 grid with 8 cables per join has 84 struts and 572
+// elements. Far from equilibrium as built: the joining cables carry no force.
 #include <string>
 
 #include "model/structure.hpp"
@@ -44,5 +50,12 @@ Structure tower_equilibrium(const std::string& data_dir, bool gravity);
 Structure perturbed_tower(const std::string& data_dir, bool gravity, double noise = 0.02, unsigned seed = 1);
 
 Structure octahedron_chain(int blocks);
+
+struct OctahedronGridParameters {
+  int rows = 2;
+  int cols = 7;
+  int cables_per_join = 8;
+};
+Structure octahedron_grid(const OctahedronGridParameters& p);
 
 }  // namespace tensegrity::scenes
