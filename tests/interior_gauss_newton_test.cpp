@@ -169,6 +169,61 @@ TEST(InteriorGaussNewton, BudgetIsAStatusNotAnAnswer) {
   EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
 }
 
+// The second attempt's options (high force weight, adaptive damping) also
+// converge on the perturbed tower, inside the bounds.
+TEST(InteriorGaussNewton, PatientAttemptConvergesOnTheTower) {
+  const Structure scene = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
+  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), patient_interior_options());
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_TRUE(verify(scene, r.positions, r.forces, 1e-8).ok);
+  const ForceScale scale = make_force_scale(scene, 1e-3);
+  for (int e = 0; e < scene.num_elements(); ++e) {
+    EXPECT_GT(r.forces[e], scale.lower[e]) << "element " << e;
+    EXPECT_LT(r.forces[e], scale.upper[e]) << "element " << e;
+  }
+  for (std::size_t k = 1; k < r.trace.size(); ++k) EXPECT_LE(r.trace[k].objective, r.trace[k - 1].objective);
+}
+
+// A window whose residual did not fall to progress_ratio of its start ends
+// the attempt as `stalled`, at the end of that window.
+TEST(InteriorGaussNewton, ProgressTestEndsAnAttemptAsStalled) {
+  const Structure scene = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
+  InteriorGaussNewtonOptions o = patient_interior_options();
+  o.progress_window = 2;
+  o.progress_ratio = 1e-12;  // no two steps cut the residual this much
+  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), o);
+  EXPECT_EQ(r.status, Status::Stalled) << r.message;
+  EXPECT_EQ(r.stats.iterations, 2);
+  EXPECT_NE(r.message.find("over 2 interior steps"), std::string::npos) << r.message;
+  EXPECT_TRUE(r.positions.allFinite() && r.forces.allFinite());
+}
+
+// alternating-gn runs the second attempt when the first stops short on a part
+// of at least interior_retry_elements elements: then no stress QP runs.
+// Below that size, or with interior_retry_iterations=0, the fallback does.
+TEST(InteriorGaussNewton, RetryRunsBeforeTheFallbackOnLargeParts) {
+  const Structure scene = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
+  const auto details = [](const SolveResult& r) -> const AlternatingDetails& {
+    return dynamic_cast<const AlternatingDetails&>(*r.details.at(0));
+  };
+  SolveOptions options;
+  options.backend_options = {{"interior_iterations", "3"}, {"interior_retry_elements", "0"}};
+  const SolveResult retried = make_alternating_gn_solver()->Solve(scene, options);
+  ASSERT_EQ(retried.status, Status::Converged) << retried.message;
+  EXPECT_GT(details(retried).interior_iterations, 3);
+  EXPECT_EQ(details(retried).stress_solves, 0);
+  EXPECT_TRUE(verify(scene, retried.positions, retried.forces, 1e-8).ok);
+
+  for (const OptionPairs& pairs : {OptionPairs{{"interior_iterations", "3"}},
+                                   OptionPairs{{"interior_iterations", "3"}, {"interior_retry_elements", "0"},
+                                               {"interior_retry_iterations", "0"}}}) {
+    options.backend_options = pairs;
+    const SolveResult fallback = make_alternating_gn_solver()->Solve(scene, options);
+    EXPECT_EQ(details(fallback).interior_iterations, 3);
+    EXPECT_GT(details(fallback).stress_solves, 0);
+  }
+}
+
 TEST(InteriorGaussNewton, OptionsAreChecked) {
   InteriorGaussNewtonOptions o;
   EXPECT_TRUE(o.IsValid());
@@ -184,6 +239,16 @@ TEST(InteriorGaussNewton, OptionsAreChecked) {
   EXPECT_EQ(parsed.interior.force_weight, 300.0);
   options.backend_options = {{"interior_boundary_fraction", "1.5"}};
   EXPECT_THROW(GaussNewtonAlternatingOptions::FromPairs(options.backend_options), InputError);
+  options.backend_options = {{"interior_retry_iterations", "9"}, {"interior_retry_elements", "12"}};
+  const AlternatingOptions retry = GaussNewtonAlternatingOptions::FromPairs(options.backend_options);
+  EXPECT_EQ(retry.interior_retry.max_iterations, 9);
+  EXPECT_EQ(retry.interior_retry_elements, 12);
+  EXPECT_EQ(AlternatingOptions{}.interior_retry.force_weight, 3e5);
+  options.backend_options = {{"interior_retry_elements", "-1"}};
+  EXPECT_THROW(GaussNewtonAlternatingOptions::FromPairs(options.backend_options), InputError);
+  o = patient_interior_options();
+  o.progress_ratio = 0.0;
+  EXPECT_FALSE(o.IsValid());
   // The faithful variant has no interior attempt.
   options.backend_options = {{"interior_iterations", "7"}};
   EXPECT_THROW(FaithfulAlternatingOptions::FromPairs(options.backend_options), InputError);

@@ -50,6 +50,8 @@ bool AlternatingOptions::IsValid(std::string* why) const {
   if (!interior.IsValid())
     return fail("interior_force_weight must be > 0, interior_boundary_fraction in (0, 1), "
                 "interior_anchor_until in [0, 1]");
+  if (!interior_retry.IsValid()) return fail("interior_retry_iterations must be in [0, 1000000]");
+  if (interior_retry_elements < 0) return fail("interior_retry_elements must be in [0, 1000000]");
   return true;
 }
 
@@ -93,6 +95,11 @@ GaussNewtonAlternatingOptions GaussNewtonAlternatingOptions::FromPairs(const Opt
       reader.number("interior_boundary_fraction", o.interior.boundary_fraction, ValueRange::open(0.0, 1.0));
   o.interior.anchor_until = reader.number("interior_anchor_until", o.interior.anchor_until, ValueRange::closed(0.0, 1.0));
   o.interior.margin_fraction = o.margin;
+  o.interior_retry.max_iterations =
+      reader.integer("interior_retry_iterations", o.interior_retry.max_iterations, 0, kLargestIterationCount);
+  o.interior_retry.margin_fraction = o.margin;
+  o.interior_retry_elements =
+      reader.integer("interior_retry_elements", o.interior_retry_elements, 0, kLargestIterationCount);
   reader.reject_unknown();
   return o;
 }

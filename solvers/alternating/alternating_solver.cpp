@@ -560,6 +560,27 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
       return best;
     }
   }
+  // The retry belongs to the interior attempt: interior_iterations=0 skips both.
+  if (alternating.interior.max_iterations > 0 && alternating.interior_retry.max_iterations > 0 &&
+      part.num_elements() >= alternating.interior_retry_elements && best.status != Status::Converged) {
+    const SolveOptions so = remaining_budget(options, elapsed(), iterations, kDefaultIterationBudget);
+    if (so.time_limit_s > 0.0 && so.max_iterations > 0) {
+      const double offset = elapsed();
+      SolveResult retry = solve_interior_gauss_newton(part, so, initial_forces, alternating.interior_retry);
+      for (TracePoint& p : retry.trace) p.seconds += offset;
+      details.interior_iterations += retry.stats.iterations;
+      iterations += retry.stats.iterations;
+      if (retry.status == Status::Converged) {
+        best = std::move(retry);
+        if (!exceeds_cap(part, options, alternating.margin, best)) {
+          best.stats.iterations = iterations;
+          best.stats.seconds = elapsed();
+          best.details = {std::make_shared<const AlternatingDetails>(details)};
+          return best;
+        }
+      }
+    }
+  }
   // One series of runs (the first as asked, then restarts after stalls);
   // empty when no budget was left for a run.
   auto run_series = [&](bool hold_cap) -> std::optional<SolveResult> {

@@ -97,6 +97,12 @@ struct AlternatingOptions {
   int stall_window = 200;        // a run has stalled when its objective is not below ...
   double stall_ratio = 0.9;      // ... this factor of its value stall_window outer iterations earlier
   InteriorGaussNewtonOptions interior;  // interior.max_iterations = 0 skips the interior attempt
+  // The second interior attempt, when the first does not converge on a part
+  // of at least interior_retry_elements elements (below that the fallback's
+  // stress QP is cheap and finds smaller geometry changes);
+  // interior_retry.max_iterations = 0 skips it.
+  InteriorGaussNewtonOptions interior_retry = patient_interior_options();
+  int interior_retry_elements = 4000;
 
   bool IsValid(std::string* why = nullptr) const;
 };
@@ -111,7 +117,8 @@ struct FaithfulAlternatingOptions : AlternatingOptions {
 // `--option` keys of `alternating-gn`: max_step, sigma_weight, lambda,
 // qp_every_step, qp_on_crossing, move_bound_forces, anchor, restarts,
 // stall_window, stall_ratio, interior_iterations, interior_force_weight,
-// interior_boundary_fraction, interior_anchor_until, epsilon_cvg, mu, margin.
+// interior_boundary_fraction, interior_anchor_until, interior_retry_iterations,
+// interior_retry_elements, epsilon_cvg, mu, margin.
 struct GaussNewtonAlternatingOptions : AlternatingOptions {
   static GaussNewtonAlternatingOptions FromPairs(const OptionPairs& pairs);
 };

@@ -18,7 +18,18 @@ bool InteriorGaussNewtonOptions::IsValid() const {
   return max_iterations >= 0 && force_weight > 0.0 && std::isfinite(force_weight) && boundary_fraction > 0.0 &&
          boundary_fraction < 1.0 && anchor_until >= 0.0 && anchor_until <= 1.0 && max_step > 0.0 &&
          std::isfinite(max_step) && lambda >= 0.0 && std::isfinite(lambda) && margin_fraction >= 0.0 &&
-         margin_fraction < 1.0;
+         margin_fraction < 1.0 && progress_window >= 0 && progress_ratio > 0.0 && progress_ratio <= 1.0;
+}
+
+InteriorGaussNewtonOptions patient_interior_options() {
+  InteriorGaussNewtonOptions o;
+  o.max_iterations = 1500;
+  o.force_weight = 3e5;
+  o.lambda = 1e-14;
+  o.adaptive_damping = true;
+  o.progress_window = 100;
+  o.progress_ratio = 0.9;
+  return o;
 }
 
 namespace {
@@ -36,6 +47,9 @@ constexpr double kChordRatio = 0.1;
 constexpr double kFinalPhaseDistance = 1e3;
 constexpr double kFinalPhaseCut = 0.75;
 constexpr int kFinalPhaseSteps = 20;
+// Adaptive damping (InteriorGaussNewtonOptions::adaptive_damping): the factor
+// by which lambda grows after a shortened step and shrinks after a full one.
+constexpr double kDampingFactor = 10.0;
 
 class InteriorSolve {
  public:
@@ -108,6 +122,7 @@ class InteriorSolve {
   int evaluations_ = 0;
   bool move_positions_ = true;
   bool chord_ = false;  // try the next step on the current factorization
+  bool shortened_ = false;  // the line search shortened the last accepted step
 };
 
 bool InteriorSolve::factorize(bool move_positions) {
@@ -172,6 +187,7 @@ bool InteriorSolve::line_search(bool chord) {
   for (int k = 0; k < eq_.free_nodes().num_free(); ++k) largest_move = std::max(largest_move, dq_.segment<3>(3 * k).norm());
   if (!std::isfinite(largest_move) || !dsigma_.allFinite() || !(alpha > 0.0)) return false;
   if (alpha * largest_move > o_.max_step * L_) alpha = o_.max_step * L_ / largest_move;
+  const double longest = alpha;
   for (int halving = 0; halving < (chord ? 1 : 12); ++halving, alpha *= 0.5) {
     q_trial_ = q_ + alpha * dq_;
     sigma_trial_ = sigma_ + alpha * dsigma_;
@@ -179,6 +195,7 @@ bool InteriorSolve::line_search(bool chord) {
     ++evaluations_;
     const double phi_trial = objective(sigma_trial_, f_trial_);
     if (phi_trial < phi_ * (chord ? kChordRatio : 1.0 - 1e-4 * alpha)) {
+      shortened_ = alpha < longest;
       q_.swap(q_trial_);
       sigma_.swap(sigma_trial_);
       f_.swap(f_trial_);
@@ -233,6 +250,13 @@ SolveResult InteriorSolve::run() {
     if (iteration >= std::min(step_budget, options_.iteration_budget(kDefaultIterationBudget)))
       return finish(Status::MaxIterations, "interior Gauss-Newton step budget spent");
     if (recorder_.out_of_time()) return finish(Status::TimeLimit, "time budget spent");
+    if (o_.progress_window > 0 && iteration > 0 && iteration % o_.progress_window == 0) {
+      const std::vector<TracePoint>& trace = recorder_.trace();
+      const double window_start = trace[trace.size() - 1 - o_.progress_window].relative_residual;
+      if (rel > o_.progress_ratio * window_start)
+        return finish(Status::Stalled, "stalled: the relative residual fell too little over " +
+                                           std::to_string(o_.progress_window) + " interior steps");
+    }
     const double before = phi_;
     if (chord_) {
       chord_ = false;
@@ -258,7 +282,9 @@ SolveResult InteriorSolve::run() {
       if (lambda_ > 1e6) return finish(Status::Stalled, "stalled: no step decreases Eq. 4's objective");
       continue;
     }
-    lambda_ = std::max(o_.lambda, lambda_ * 0.01);
+    if (!o_.adaptive_damping) lambda_ = std::max(o_.lambda, lambda_ * 0.01);
+    else if (shortened_) lambda_ = std::max(o_.lambda, lambda_ * kDampingFactor);
+    else lambda_ = std::max(o_.lambda, lambda_ / kDampingFactor);
     steady_cut = phi_ <= kFinalPhaseCut * before;
     chord_ = !anchored && phi_ <= kChordRatio * before;
     if (anchored && phi_ > o_.anchor_until * before) anchored = false;

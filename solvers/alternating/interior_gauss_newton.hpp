@@ -41,8 +41,24 @@ struct InteriorGaussNewtonOptions {
   double max_step = 0.25;          // largest node move per step (units of L)
   double lambda = 1e-12;           // damping relative to the mean diagonal of the normal matrix
   double margin_fraction = 0.0;    // sign margin / F0; 0 = SolveOptions::margin_fraction
+  // Levenberg-Marquardt damping: after a step the line search had to shorten,
+  // lambda grows tenfold; after a full step it shrinks tenfold, down to lambda.
+  // Off: lambda returns to its floor after every accepted step.
+  bool adaptive_damping = false;
+  // Progress test (0: off): every progress_window steps the relative residual
+  // must have fallen to progress_ratio of its value a window earlier, or the
+  // attempt ends `stalled`.
+  int progress_window = 0;
+  double progress_ratio = 0.9;
   bool IsValid() const;
 };
+
+// The second attempt of `alternating-gn`, run when the first does not
+// converge: forces a hundred times cheaper than moves, adaptive damping and
+// a progress test. Tall slender structures (the 160-layer tower) have
+// near-mechanisms that only many small geometry steps resolve: there the
+// first attempt stalls and this one converges linearly.
+InteriorGaussNewtonOptions patient_interior_options();
 
 // `initial_forces`: the stress QP's forces at the part's geometry (N), or empty.
 SolveResult solve_interior_gauss_newton(const Structure& part, const SolveOptions& options,
