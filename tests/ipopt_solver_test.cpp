@@ -16,6 +16,7 @@
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"
 #include "formulations/force_scale.hpp"
+#include "model/verify.hpp"
 #include "scenes/families.hpp"
 #include "scenes/suites.hpp"
 
@@ -224,21 +225,28 @@ TEST(IpoptSolver, StartOptionIsCheckedAndAWarmStartReachesTheSameOptimum) {
   std::printf("cold %d iterations, warm %d iterations\n", cold.stats.iterations, warm.stats.iterations);
 }
 
+// The stress test's case of `family` at the level labelled `label`, trial 0, seed 1.
+Structure family_case(const Structure& base, const std::string& family, const std::string& label) {
+  const std::vector<scenes::FamilyLevel> levels = scenes::family_levels(family);
+  int level = 0;
+  while (level < static_cast<int>(levels.size()) && levels[level].label != label) ++level;
+  if (level == static_cast<int>(levels.size())) throw std::logic_error("no level " + label + " in " + family);
+  return scenes::make_family_case(base, family, level, 0, 1);
+}
+
 // start=auto runs Ipopt from alternating-gn's equilibrium and from the scene
-// and keeps the closer verified answer. On prism-6-gravity the warm start ends
-// in a local optimum 22 % farther than the cold one; on prism-8-gravity with
-// the stress test's near-parallel strut (0.01 rad) the cold one ends more than
-// three times farther than the warm one.
+// and keeps the closer verified answer. On prism-7-gravity with the stress
+// test's 30 % node noise the warm start ends in a local optimum more than six
+// times farther than the cold one (2.86 m against 0.43 m); on prism-8-gravity
+// with its near-parallel strut (0.01 rad) the cold one ends four times farther
+// than the warm one.
 TEST(IpoptSolver, AutoStartKeepsTheCloserOfTheWarmAndTheColdAnswer) {
   const IpoptSolver solver;
   const std::string data = std::string(TENSEGRITY_SOURCE_DIR) + "/data";
-  const Structure prism6 = read_scene_file(data + "/reference/prism-6-gravity.scene.json");
-  const Structure prism8 = read_scene_file(data + "/reference/prism-8-gravity.scene.json");
-  const std::vector<scenes::FamilyLevel> levels = scenes::family_levels("near-parallel");
-  int level = 0;
-  while (level < static_cast<int>(levels.size()) && levels[level].label != "0.01rad") ++level;
-  ASSERT_LT(level, static_cast<int>(levels.size()));
-  const Structure prism8_near_parallel = scenes::make_family_case(prism8, "near-parallel", level, 0, 1);
+  const Structure prism7_noise =
+      family_case(read_scene_file(data + "/reference/prism-7-gravity.scene.json"), "noise", "0.3");
+  const Structure prism8_near_parallel =
+      family_case(read_scene_file(data + "/reference/prism-8-gravity.scene.json"), "near-parallel", "0.01rad");
   auto with_start = [](const char* start) {
     SolveOptions o = no_shortcut();
     o.prestress_factor = 1.0;  // where the cap binds: the optima measured above
@@ -246,7 +254,8 @@ TEST(IpoptSolver, AutoStartKeepsTheCloserOfTheWarmAndTheColdAnswer) {
     return o;
   };
   for (const auto& [name, s, cold_closer] : std::vector<std::tuple<std::string, Structure, bool>>{
-           {"prism-6-gravity", prism6, true}, {"prism-8-gravity near-parallel 0.01rad", prism8_near_parallel, false}}) {
+           {"prism-7-gravity noise 0.3", prism7_noise, true},
+           {"prism-8-gravity near-parallel 0.01rad", prism8_near_parallel, false}}) {
     const SolveResult cold = solver.Solve(s, with_start("scene"), DriverControls{false});
     const SolveResult warm = solver.Solve(s, with_start("alternating-gn"), DriverControls{false});
     const SolveResult automatic = solver.Solve(s, with_start("auto"), DriverControls{false});
@@ -316,10 +325,33 @@ TEST(IpoptSolver, AutoStartSkipsTheSceneRunWhenTheWarmAnswerIsTheScene) {
   EXPECT_FALSE(details->to_json().contains("cold_start_iterations"));
 }
 
+// Under gravity the run from the scene starts at the stress QP's forces with
+// the mean cable force held at the cap, as the held row of Eq. 5 asks. From
+// the driver's forces, whose level the load sets, Ipopt wandered on these
+// stress-test cases and spent its 2000 iterations.
+TEST(IpoptSolver, SceneStartUnderGravityHoldsTheLevelAtTheCap) {
+  const IpoptSolver solver;
+  const std::string reference = std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/";
+  for (const auto& [name, s] : std::vector<std::pair<std::string, Structure>>{
+           {"prism-10-gravity near-coincident 0.01",
+            family_case(read_scene_file(reference + "prism-10-gravity.scene.json"), "near-coincident", "0.01")},
+           {"prism-11-gravity near-coincident 1e-09",
+            family_case(read_scene_file(reference + "prism-11-gravity.scene.json"), "near-coincident", "1e-09")}}) {
+    SolveOptions scene_start;
+    scene_start.backend_options = {{"start", "scene"}};
+    const SolveResult r = solver.Solve(s, scene_start);
+    ASSERT_EQ(r.status, Status::Converged) << name << ": " << r.message;
+    EXPECT_TRUE(verify(s, r.positions, r.forces, 1e-8).ok) << name;
+    std::printf("[ %s ] %d iterations, change %.6g m\n", name.c_str(), r.stats.iterations, r.stats.geometry_change);
+    EXPECT_LT(r.stats.iterations, 1000) << name;
+  }
+}
+
 // prestress=cap: the capped run restarts at the held optimum and is kept only
-// when verified and closer to the scene. On prism-7-gravity it moves to another,
-// closer local optimum; on prism-3-gravity the held optimum stays. At both the
-// cap is active: the mean cable force sits at kappa times the weight.
+// when verified and closer to the scene. On prism-6-gravity with gravity along
+// +x (the stress test's case) it moves to another local optimum, nine times
+// closer; on prism-3-gravity the held optimum stays. At both the cap is
+// active: the mean cable force sits at kappa times the weight.
 TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
   const IpoptSolver solver;
   SolveOptions bad;
@@ -338,26 +370,34 @@ TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
   SolveOptions nlopt_options;
   nlopt_options.prestress_factor = kBindingPrestressFactor;
   const std::string reference = std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/";
-  for (const auto& [name, improves] : std::vector<std::pair<std::string, bool>>{{"prism-7-gravity", true},
-                                                                                 {"prism-3-gravity", false}}) {
-    const Structure s = read_scene_file(reference + name + ".scene.json");
+  const Structure prism6_sideways =
+      family_case(read_scene_file(reference + "prism-6-gravity.scene.json"), "gravity-direction", "+x");
+  for (const auto& [name, s, improves] : std::vector<std::tuple<std::string, Structure, bool>>{
+           {"prism-6-gravity, gravity +x", prism6_sideways, true},
+           {"prism-3-gravity", read_scene_file(reference + "prism-3-gravity.scene.json"), false}}) {
     const SolveResult held = solver.Solve(s, held_options, DriverControls{false});
     const SolveResult capped = solver.Solve(s, capped_options, DriverControls{false});
     const SolveResult by_default = solver.Solve(s, default_options, DriverControls{false});
     EXPECT_EQ(by_default.stats.geometry_change, capped.stats.geometry_change) << name << ": cap is the default";
     ASSERT_EQ(held.status, Status::Converged) << name << ": " << held.message;
     ASSERT_EQ(capped.status, Status::Converged) << name << ": " << capped.message;
-    // The cap is active (below), so this is also an optimum of nlopt's Eq. 5,
-    // which holds the mean cable force at W: nlopt ends there too.
+    // nlopt's Eq. 5 holds the mean cable force at kappa W, as the held run
+    // does: nlopt ends at the held optimum.
     const SolveResult nlopt = make_solver("nlopt")->Solve(s, nlopt_options, DriverControls{false});
     ASSERT_EQ(nlopt.status, Status::Converged) << name << ": " << nlopt.message;
     std::printf("[ %s ] held %.10g, capped %.10g, nlopt %.10g\n", name.c_str(), held.stats.geometry_change,
                 capped.stats.geometry_change, nlopt.stats.geometry_change);
-    EXPECT_NEAR(capped.stats.geometry_change, nlopt.stats.geometry_change,
+    EXPECT_NEAR(held.stats.geometry_change, nlopt.stats.geometry_change,
                 kSameOptimumGeometryChange * nlopt.stats.geometry_change) << name;
+    // The capped answer keeps the cap: at it where the held optimum stays,
+    // below it where the capped run found a closer optimum.
     const ForceScale scale = make_force_scale(s, SolveOptions{}.margin_fraction, kBindingPrestressFactor);
     const double cable_sum = scale.normalisation_row.dot(capped.forces);
-    EXPECT_NEAR(cable_sum, scale.prestress_cap, 1e-6 * scale.prestress_cap) << name;
+    if (improves) {
+      EXPECT_LT(cable_sum, 0.9 * scale.prestress_cap) << name;
+    } else {
+      EXPECT_NEAR(cable_sum, scale.prestress_cap, 1e-6 * scale.prestress_cap) << name;
+    }
     const auto* details = dynamic_cast<const IpoptDetails*>(capped.details.empty() ? nullptr : capped.details.front().get());
     ASSERT_NE(details, nullptr);
     EXPECT_EQ(details->prestress_cap_kept, improves) << name;

@@ -280,11 +280,18 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   const double max_free_weight = part.max_free_node_weight();
 
   MinimalGeometryChangeNlp nlp(part, scale);
+  // The start's forces satisfy the problem's own prestress row. Under gravity
+  // that row holds the cable sum at the cap, while the driver's stress QP
+  // leaves the level to the load (on the 20-layer gravity tower with 1 %
+  // noise: 0.16 of the cap, the row violated by 1.6e3 in units of F0), and
+  // from such a start Ipopt wanders off (9 m on that tower). So under gravity
+  // the stress QP runs again with the level held at the cap.
   Eigen::VectorXd sigma0;
-  if (part_problem.initial_forces.size() == part.num_elements() && part_problem.initial_forces.allFinite()) {
+  const bool held_start = scale.has_prestress_cap();
+  if (!held_start && part_problem.initial_forces.size() == part.num_elements() && part_problem.initial_forces.allFinite()) {
     sigma0 = part_problem.initial_forces;  // the driver's stress QP at this geometry, same scale
   } else {
-    StressQp qp(nlp.equilibrium(), scale);
+    StressQp qp(nlp.equilibrium(), held_start ? held_at_prestress_cap(scale) : scale);
     sigma0 = qp.solve().sigma;
     if (sigma0.size() != part.num_elements() || !sigma0.allFinite()) sigma0 = reference_forces(part, scale);
   }
