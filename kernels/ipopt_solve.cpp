@@ -137,15 +137,17 @@ class SparseNlpTnlp final : public Ipopt::TNLP {
       adapter->ResortX(*ip_data->curr()->x(), iterate_.data());
       it.x = &iterate_;
     }
-    if (on_iteration_(it) == IterationControl::StopForTimeLimit) {
-      stopped_for_time_limit_ = true;
-      return false;
+    switch (on_iteration_(it)) {
+      case IterationControl::Continue: return true;
+      case IterationControl::StopForTimeLimit: stopped_for_time_limit_ = true; return false;
+      case IterationControl::StopSatisfied: stopped_satisfied_ = true; return false;
     }
     return true;
   }
 
   bool has_solution() const { return has_solution_; }
   bool stopped_for_time_limit() const { return stopped_for_time_limit_; }
+  bool stopped_satisfied() const { return stopped_satisfied_; }
   int last_iteration() const { return last_iteration_; }
 
  private:
@@ -165,6 +167,7 @@ class SparseNlpTnlp final : public Ipopt::TNLP {
   int last_iteration_ = 0;
   bool has_solution_ = false;
   bool stopped_for_time_limit_ = false;
+  bool stopped_satisfied_ = false;
 };
 
 // An application that never writes to stdout and reads no option file: with
@@ -186,7 +189,8 @@ bool set_option(Ipopt::OptionsList& options, const IpoptOption& option) {
 
 }  // namespace
 
-IpoptOutcome ipopt_outcome(int return_code, bool convex_problem, bool stopped_for_time_limit) {
+IpoptOutcome ipopt_outcome(int return_code, bool convex_problem, bool stopped_for_time_limit,
+                           bool stopped_satisfied) {
   switch (static_cast<Ipopt::ApplicationReturnStatus>(return_code)) {
     case Ipopt::Solve_Succeeded: return {Status::Converged, "Ipopt: optimal solution found"};
     case Ipopt::Solved_To_Acceptable_Level: return {Status::Converged, "Ipopt: solved to acceptable level"};
@@ -198,6 +202,7 @@ IpoptOutcome ipopt_outcome(int return_code, bool convex_problem, bool stopped_fo
     case Ipopt::Maximum_CpuTime_Exceeded: return {Status::TimeLimit, "Ipopt: maximum CPU time exceeded"};
     case Ipopt::User_Requested_Stop:
       if (stopped_for_time_limit) return {Status::TimeLimit, "Ipopt: wall-clock time limit reached"};
+      if (stopped_satisfied) return {Status::Converged, "Ipopt: stopped at an iterate that passes the caller's test"};
       return {Status::NumericalError, "Ipopt: stopped by the callback"};
     case Ipopt::Search_Direction_Becomes_Too_Small:
       return {Status::NumericalError, "Ipopt: search direction becomes too small"};
@@ -231,7 +236,8 @@ IpoptSolveResult solve_with_ipopt(SparseNlp& problem, const IpoptSettings& setti
     Ipopt::SmartPtr<SparseNlpTnlp> tnlp = new SparseNlpTnlp(problem, settings.on_iteration);
     const Ipopt::ApplicationReturnStatus code = app->OptimizeTNLP(Ipopt::SmartPtr<Ipopt::TNLP>(GetRawPtr(tnlp)));
     result.return_code = static_cast<int>(code);
-    IpoptOutcome outcome = ipopt_outcome(result.return_code, problem.is_convex(), tnlp->stopped_for_time_limit());
+    IpoptOutcome outcome = ipopt_outcome(result.return_code, problem.is_convex(), tnlp->stopped_for_time_limit(),
+                                         tnlp->stopped_satisfied());
     result.status = outcome.status;
     result.message = std::move(outcome.message);
     result.iterations = tnlp->last_iteration();

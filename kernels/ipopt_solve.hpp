@@ -39,6 +39,7 @@ struct IpoptIteration {
 enum class IterationControl {
   Continue,
   StopForTimeLimit,  // the caller's time budget ran out: the solve ends as TimeLimit
+  StopSatisfied,     // the iterate passes the caller's own test: the solve ends as Converged
 };
 
 struct IpoptSettings {
@@ -63,14 +64,16 @@ struct IpoptSettings {
 //   Maximum_Iterations_Exceeded                  -> MaxIterations
 //   Maximum_CpuTime_Exceeded                     -> TimeLimit
 //   User_Requested_Stop                          -> TimeLimit when the callback stopped for
-//                                                   the time limit, otherwise NumericalError
+//                                                   the time limit, Converged when it stopped
+//                                                   satisfied, otherwise NumericalError
 //   every other code                             -> NumericalError
 // The message names the outcome ("Ipopt: ..."); callers may make it more specific.
 struct IpoptOutcome {
   Status status = Status::NumericalError;
   std::string message;
 };
-IpoptOutcome ipopt_outcome(int return_code, bool convex_problem, bool stopped_for_time_limit);
+IpoptOutcome ipopt_outcome(int return_code, bool convex_problem, bool stopped_for_time_limit,
+                           bool stopped_satisfied = false);
 
 struct IpoptSolveResult {
   Status status = Status::NumericalError;  // ipopt_outcome, or NumericalError when Ipopt did not run

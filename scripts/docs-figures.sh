@@ -46,8 +46,8 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# gravity_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
-# family is 10,20,40,80,160).
+# gravity_towers forces_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${FIGURES_BUILD_DIR:-build}
@@ -819,6 +819,43 @@ EOF2
 }
 
 # --- gravity tower family ----------------------------------------------------------
+# `forces` on the equilibria alternating-gn returns for the as-generated
+# towers, with and without gravity (docs/THEORY-force-scale.md quotes it).
+forces_towers() {
+  local layers=${FIGURES_FORCES_TOWER_LAYERS:-10 20 40 80 160}
+  step "forces on tower equilibria, layers $layers"
+  local cmd="for L in $layers, with and without --gravity: $tg generate tower --layers L --struts-per-layer 8 --cables 50L; $tg solve --solver alternating-gn --out-scene E; $tg forces E; $tg check E"
+  header "$out/forces-towers.md" "forces on the towers' equilibria" "$cmd"
+  {
+    echo "Scenes: the equilibria that \`solve --solver alternating-gn\` returns for"
+    echo "\`generate tower --layers L --struts-per-layer 8 --cables 50L [--gravity]\`. One run each;"
+    echo "seconds are \`forces\`'s own; \`check\` re-verifies its forces at the scene geometry."
+    echo
+    echo "| layers | elements | gravity | forces status | seconds | relative residual | found by | check |"
+    echo "|---|---|---|---|---|---|---|---|"
+  } >>"$out/forces-towers.md"
+  local L g flag
+  for L in $layers; do
+    for g in no yes; do
+      flag=""
+      [ "$g" = yes ] && flag="--gravity"
+      "$tg" generate tower --layers "$L" --struts-per-layer 8 --cables $((50 * L)) $flag --out "$work/ft.json" >/dev/null
+      "$tg" solve "$work/ft.json" --solver alternating-gn --quiet --out "$work/ft.sol.json" --out-scene "$work/ft.eq.json" >/dev/null || true
+      "$tg" forces "$work/ft.eq.json" --out "$work/ft.forces.json" >/dev/null 2>&1 || true
+      local verdict
+      verdict=$("$tg" check "$work/ft.eq.json" "$work/ft.forces.json" 2>&1 | tail -1 || true)
+      "$py" - "$work/ft.forces.json" "$L" "$g" "$verdict" >>"$out/forces-towers.md" <<'EOF2'
+import json, sys
+d = json.load(open(sys.argv[1]))
+st = d["stats"]
+by = "Ipopt, residual form" if "Ipopt" in d.get("message", "") else "stress QP"
+print(f"| {sys.argv[2]} | {58 * int(sys.argv[2]):,} | {sys.argv[3]} | {d['status']} | {st['seconds']:.3g} | "
+      f"{st['relative_residual']:.2g} | {by} | {sys.argv[4]} |")
+EOF2
+    done
+  done
+}
+
 gravity_towers() {
   need_bench
   local layers=${FIGURES_GRAVITY_TOWER_LAYERS:-10,20,40}
@@ -1073,7 +1110,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts gravity_towers prestress_factor}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts gravity_towers forces_towers prestress_factor}; do
   "$section"
 done
 step "done; figures in $out"

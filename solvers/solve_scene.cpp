@@ -11,6 +11,7 @@
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
 #include "kernels/stress_qp.hpp"
+#include "kernels/stress_qp_ipopt.hpp"
 #include "model/json_text.hpp"
 #include "model/errors.hpp"
 #include "model/verify.hpp"
@@ -30,6 +31,9 @@ constexpr double kPolishToOptimumBelow = 1e-3;
 // gravity) the default cap stops it short. The driver's shortcut keeps the
 // default: it only decides whether a scene already stands.
 constexpr int kForcesCommandIterations = 1000;
+// `forces` stops Ipopt's search (kernels/stress_qp_ipopt.hpp) at forces this
+// far inside the tolerance, so that the answer verifies with a margin.
+constexpr double kIpoptStopFraction = 0.1;
 
 using Clock = std::chrono::steady_clock;
 
@@ -80,26 +84,56 @@ SolveResult unchanged_part(const Structure& part, Eigen::VectorXd forces, Status
   return r;
 }
 
+// How hard forces_at_own_geometry tries before it gives up without a proof.
+enum class FixedGeometryEffort {
+  Check,    // the driver's check whether a scene already stands: the default step cap
+  Command,  // `forces`, whose answer is the point of the run
+};
+
 // The stress QP at the part's own geometry: Converged when it verifies,
 // Infeasible when the QP's optimum leaves a residual (a proof at this
 // geometry), MaxIterations when the QP spent its step cap, Stalled when it
 // stopped short of a certified optimum otherwise.
 SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& options,
-                                   int qp_iterations = StressQpOptions{}.max_iterations) {
+                                   FixedGeometryEffort effort = FixedGeometryEffort::Check) {
+  const auto t0 = Clock::now();
   const ForceScale scale = make_force_scale(part, options.margin_fraction);
   Equilibrium eq(part);
   eq.set_positions(part.positions);
   StressQpOptions qp_options;
   qp_options.certify_optimum = true;  // a claim of infeasibility needs the proof
-  qp_options.max_iterations = qp_iterations;
+  if (effort == FixedGeometryEffort::Command) qp_options.max_iterations = kForcesCommandIterations;
   StressQp qp(eq, scale, qp_options);
   StressQpResult qr = qp.solve();
   Verification v = verify(part, part.positions, qr.sigma, options.tolerance);
+  const bool near_equilibrium =
+      !v.ok && v.relative_residual <= kPolishToOptimumBelow && qr.status != StressQpStatus::NumericalFailure;
+  std::string found_by;
+  // On large near-mechanisms the stress QP's normal matrix loses the
+  // equilibrium that exists (kernels/stress_qp_ipopt.hpp): `forces` asks
+  // Ipopt on the residual form before the slower polish below.
+  if (near_equilibrium && effort == FixedGeometryEffort::Command && qr.status != StressQpStatus::Optimal) {
+    const auto relative_residual = [&](const Eigen::VectorXd& sigma) {
+      return verify(part, part.positions, sigma, options.tolerance).relative_residual;
+    };
+    const StressQpIpoptResult ir =
+        solve_stress_qp_with_ipopt(eq, scale, qr.sigma, options.time_limit_s - seconds_since(t0),
+                                   relative_residual, kIpoptStopFraction * options.tolerance);
+    qr.iterations += ir.iterations;
+    if (ir.sigma.size() == part.num_elements()) {
+      const Verification iv = verify(part, part.positions, ir.sigma, options.tolerance);
+      if (iv.relative_residual < v.relative_residual) {
+        qr.sigma = ir.sigma;
+        v = iv;
+        found_by = " (forces from Ipopt on Eq. 4 in residual form)";
+      }
+    }
+  }
   // Near an equilibrium the answer matters most and the QP is hardest (near-
   // mechanisms stop projected Newton on a wrong active set): the polish to
   // the optimum, an active-set method, finishes from there. Far from one
   // (a scene to be solved) it would only cost time.
-  if (!v.ok && v.relative_residual <= kPolishToOptimumBelow && qr.status != StressQpStatus::NumericalFailure) {
+  if (near_equilibrium && !v.ok) {
     qp.set_polish(true, kForcesPolishSteps);
     StressQpResult polished = qp.solve(qr.sigma);
     const Verification pv = verify(part, part.positions, polished.sigma, options.tolerance);
@@ -107,6 +141,7 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
       polished.iterations += qr.iterations;
       qr = std::move(polished);
       v = pv;
+      found_by.clear();
     }
   }
   // The certified optimum's residual is at least this much of the returned one.
@@ -114,7 +149,7 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
       qr.objective > 0.0 ? std::sqrt(std::max(0.0, qr.objective_lower_bound) / qr.objective) : 1.0;
   SolveResult r;
   if (v.ok) {
-    r = unchanged_part(part, qr.sigma, Status::Converged, "already in equilibrium at the scene geometry");
+    r = unchanged_part(part, qr.sigma, Status::Converged, "already in equilibrium at the scene geometry" + found_by);
   } else if (qr.status == StressQpStatus::Optimal && v.relative_residual * proven_fraction > options.tolerance) {
     r = unchanged_part(part, qr.sigma, Status::Infeasible,
                        "the scene geometry is not a tensegrity (the stress QP's optimum has relative residual " +
@@ -290,7 +325,7 @@ SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, c
     SolveOptions backend_options = part_options;
     if (controls.skip_if_in_equilibrium) {
       const Clock::time_point checked = Clock::now();
-      SolveResult shortcut = forces_at_own_geometry(part, part_options);
+      SolveResult shortcut = forces_at_own_geometry(part, part_options, FixedGeometryEffort::Check);
       if (shortcut.status == Status::Converged) return shortcut;
       // The check's time counts against the part's limit.
       backend_options.time_limit_s -= seconds_since(checked);
@@ -315,7 +350,7 @@ SolveResult solve_scene(const Solver& solver, const Structure& scene, const Solv
 SolveResult solve_forces_only(const Structure& scene, const SolveOptions& options) {
   validate_settings(options);
   return solve_by_parts(scene, options, [](const Structure& part, const SolveOptions& part_options) {
-    return forces_at_own_geometry(part, part_options, kForcesCommandIterations);
+    return forces_at_own_geometry(part, part_options, FixedGeometryEffort::Command);
   });
 }
 

@@ -233,9 +233,9 @@ TEST(ForceScaleGravity, TowerOf40LayersUnderGravityEquilibriumPassesForces) {
   expect_tower_equilibrium_passes_forces(40, true);
 }
 
-// Without gravity: alternating-gn's interior attempt converges in its final
-// steps past interior_iterations, and `forces` needs its larger step cap on
-// this near-mechanism (the driver's shortcut stops short of the optimum).
+// Without gravity: a near-mechanism on which the stress QP stops short of the
+// equilibrium, and `forces` finds it with Ipopt on Eq. 4 in residual form
+// (kernels/stress_qp_ipopt.hpp).
 TEST(ForceScaleGravity, TowerOf40LayersWithoutGravityEquilibriumPassesForces) {
   expect_tower_equilibrium_passes_forces(40, false);
 }

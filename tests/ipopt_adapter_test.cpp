@@ -212,6 +212,23 @@ TEST(IpoptAdapter, TheCallbackSeesEveryIterateAndCanStopForTime) {
   EXPECT_NEAR(seen[1].second[1], 1.0, 1e-8);
 }
 
+TEST(IpoptAdapter, TheCallbackCanStopSatisfiedWithTheIterateItAccepted) {
+  LineNearestPoint problem;
+  IpoptSettings settings;
+  settings.on_iteration = [&](const IpoptIteration& it) {
+    return it.iteration == 1 ? IterationControl::StopSatisfied : IterationControl::Continue;
+  };
+  const IpoptSolveResult r = solve_with_ipopt(problem, settings);
+  EXPECT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_EQ(r.return_code, Ipopt::User_Requested_Stop);
+  EXPECT_EQ(r.iterations, 1);
+  ASSERT_TRUE(r.has_solution);
+  EXPECT_EQ(problem.finalized, 1);
+  // A QP: one Newton step reached the optimum (0, 1), the point it stopped at.
+  EXPECT_NEAR(problem.solution.x[0], 0.0, 1e-8);
+  EXPECT_NEAR(problem.solution.x[1], 1.0, 1e-8);
+}
+
 TEST(IpoptAdapter, LocalInfeasibilityIsAProofOnlyForAConvexProblem) {
   // x + y = 1 with x, y >= 1: no feasible point.
   LineNearestPoint convex(1.0, 1.0, 1.0);
@@ -257,6 +274,7 @@ TEST(IpoptStatusMapping, EveryReturnCodeHasItsDocumentedStatus) {
   // The two codes whose meaning depends on the circumstances.
   EXPECT_EQ(ipopt_outcome(Ipopt::Infeasible_Problem_Detected, true, false).status, S::Infeasible);
   EXPECT_EQ(ipopt_outcome(Ipopt::User_Requested_Stop, false, true).status, S::TimeLimit);
+  EXPECT_EQ(ipopt_outcome(Ipopt::User_Requested_Stop, false, false, true).status, S::Converged);
   // The rest ignore them.
   for (const auto& [code, status] : table) {
     if (code != Ipopt::Infeasible_Problem_Detected && code != Ipopt::User_Requested_Stop) {
