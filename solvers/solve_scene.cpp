@@ -84,10 +84,10 @@ SolveResult unchanged_part(const Structure& part, Eigen::VectorXd forces, Status
   return r;
 }
 
-// How hard forces_at_own_geometry tries before it gives up without a proof.
+// The stress QP's step cap in forces_at_own_geometry.
 enum class FixedGeometryEffort {
-  Check,    // the driver's check whether a scene already stands: the default step cap
-  Command,  // `forces`, whose answer is the point of the run
+  Check,    // the driver's check whether a scene already stands: the default cap
+  Command,  // `forces`, whose answer is the point of the run: kForcesCommandIterations
 };
 
 // The stress QP at the part's own geometry: Converged when it verifies,
@@ -110,9 +110,9 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
       !v.ok && v.relative_residual <= kPolishToOptimumBelow && qr.status != StressQpStatus::NumericalFailure;
   std::string found_by;
   // On large near-mechanisms the stress QP's normal matrix loses the
-  // equilibrium that exists (kernels/stress_qp_ipopt.hpp): `forces` asks
-  // Ipopt on the residual form before the slower polish below.
-  if (near_equilibrium && effort == FixedGeometryEffort::Command && qr.status != StressQpStatus::Optimal) {
+  // equilibrium that exists (kernels/stress_qp_ipopt.hpp): Ipopt on the
+  // residual form is asked before the slower polish below.
+  if (near_equilibrium && qr.status != StressQpStatus::Optimal) {
     const auto relative_residual = [&](const Eigen::VectorXd& sigma) {
       return verify(part, part.positions, sigma, options.tolerance).relative_residual;
     };

@@ -218,6 +218,10 @@ void expect_tower_equilibrium_passes_forces(int layers, bool gravity) {
   const SolveResult forces = solve_forces_only(equilibrium, options);
   EXPECT_EQ(forces.status, Status::Converged) << forces.message;
   EXPECT_TRUE(forces.positions == equilibrium.positions);
+  // `solve` from the equilibrium: it already stands, so nothing moves.
+  const SolveResult again = make_solver("alternating-gn")->Solve(equilibrium, options, {});
+  EXPECT_EQ(again.status, Status::Converged) << again.message;
+  EXPECT_EQ(again.stats.geometry_change, 0.0) << again.message;
 }
 
 // The 10-layer tower's equilibria (580 elements): near-mechanisms on which the
