@@ -24,8 +24,15 @@ namespace {
 // Polish steps of the stress QP at fixed geometry (`forces`, the driver's
 // shortcut) near an equilibrium: the 10-layer tower's takes about a hundred.
 constexpr int kForcesPolishSteps = 2000;
-// The relative residual below which that polish runs.
+// The relative residual of the first solve below which that polish runs,
+// and `forces` asks Ipopt first (kernels/stress_qp_ipopt.hpp).
 constexpr double kPolishToOptimumBelow = 1e-3;
+// Below this the driver's check whether a scene already stands asks Ipopt
+// too. Within the check's 100 steps the stress QP leaves the towers'
+// equilibria of `generate tower` (10 to 160 layers) at 1.6e-6 to 5.7e-6 and
+// the as-generated towers at 2.8e-4 to 4.7e-4, where Ipopt would only cost
+// time (20 s of the 160-layer tower's solve).
+constexpr double kIpoptInCheckBelow = 1e-4;
 // Projected-Newton steps of `forces`, whose answer is the point of the run:
 // on the equilibria of large near-mechanisms (the 40-layer tower without
 // gravity) the default cap stops it short. The driver's shortcut keeps the
@@ -108,11 +115,12 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   Verification v = verify(part, part.positions, qr.sigma, options.tolerance);
   const bool near_equilibrium =
       !v.ok && v.relative_residual <= kPolishToOptimumBelow && qr.status != StressQpStatus::NumericalFailure;
+  const double ipopt_below = effort == FixedGeometryEffort::Command ? kPolishToOptimumBelow : kIpoptInCheckBelow;
   std::string found_by;
   // On large near-mechanisms the stress QP's normal matrix loses the
   // equilibrium that exists (kernels/stress_qp_ipopt.hpp): Ipopt on the
   // residual form is asked before the slower polish below.
-  if (near_equilibrium && qr.status != StressQpStatus::Optimal) {
+  if (near_equilibrium && v.relative_residual <= ipopt_below && qr.status != StressQpStatus::Optimal) {
     const auto relative_residual = [&](const Eigen::VectorXd& sigma) {
       return verify(part, part.positions, sigma, options.tolerance).relative_residual;
     };
