@@ -2,12 +2,14 @@
 #include <iostream>
 
 #include "cli/commands.hpp"
+#include "kernels/process_memory.hpp"
 #include "reports/output.hpp"
 #include "model/errors.hpp"
 #include "model/known_keys.hpp"
 
 int main(int argc, char** argv) {
   using namespace tensegrity;
+  keep_freed_memory_in_process();
   CLI::App app{"tensegrity: form finding for tensegrity structures"};
   app.require_subcommand(1);
   cli::CommandRunner run;

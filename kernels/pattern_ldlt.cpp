@@ -6,6 +6,22 @@ namespace tensegrity {
 
 void PatternLdlt::analyze(const Eigen::SparseMatrix<double>& lower) {
   Base::analyzePattern(lower);
+  analyze_ordered(lower);
+}
+
+void PatternLdlt::analyze(const Eigen::SparseMatrix<double>& lower, const Eigen::VectorXi& order) {
+  const int n = static_cast<int>(lower.cols());
+  // Eigen's convention: m_Pinv lists the variables in elimination order and
+  // m_P = m_Pinv^{-1} maps a variable to its position.
+  m_Pinv.indices() = order;
+  m_P = m_Pinv.inverse();
+  Eigen::SparseMatrix<double> ordered(n, n);
+  ordered.selfadjointView<Eigen::Upper>() = lower.selfadjointView<Eigen::Lower>().twistedBy(m_P);
+  analyzePattern_preordered(ordered, true);
+  analyze_ordered(lower);
+}
+
+void PatternLdlt::analyze_ordered(const Eigen::SparseMatrix<double>& lower) {
   const int n = static_cast<int>(lower.cols());
 
   // The ordered upper triangle that Eigen's factorize() builds, with every

@@ -25,6 +25,9 @@ class PatternLdlt : public Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Ei
   // Orders and analyses `lower` (its lower triangle, compressed); the values
   // are ignored. Every later factorization must pass values in this pattern.
   void analyze(const Eigen::SparseMatrix<double>& lower);
+  // The same with the caller's elimination order (order[k]: the variable
+  // eliminated k-th) in place of AMD's, for callers that know the structure.
+  void analyze(const Eigen::SparseMatrix<double>& lower, const Eigen::VectorXi& order);
 
   // Factorizes the matrix whose lower-triangle values, in the analysed
   // pattern's storage order, are `values`. False when a pivot is zero (then
@@ -32,6 +35,8 @@ class PatternLdlt : public Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Ei
   bool factorize_values(const double* values);
 
  private:
+  // Everything after the ordering: the tables below from m_P.
+  void analyze_ordered(const Eigen::SparseMatrix<double>& lower);
   // Per column k of the ordered upper triangle: the entries in Eigen's storage
   // order, as the row and the position of the value in the caller's array.
   std::vector<int> column_start_, entry_row_, entry_source_;

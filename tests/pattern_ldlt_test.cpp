@@ -1,11 +1,14 @@
 // PatternLdlt (kernels/pattern_ldlt.hpp) against Eigen's SimplicialLDLT with
 // the same ordering: L, D and solutions equal to the bit, over several
-// refactorizations of one pattern, and the same failure on a zero pivot.
+// refactorizations of one pattern, and the same failure on a zero pivot; with
+// the caller's elimination order, against Eigen on the matrix permuted by it.
 #include "kernels/pattern_ldlt.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
+#include <set>
 #include <vector>
 
 namespace tensegrity {
@@ -75,6 +78,33 @@ TEST(PatternLdlt, EqualsEigensFactorizationToTheBit) {
     // New values in the same pattern (the diagonal kept dominant enough to factorize).
     for (int p = 0; p < K.nonZeros(); ++p) K.valuePtr()[p] *= factor(rng);
   }
+}
+
+// analyze(lower, order): the factors are those of the matrix with its
+// variables renumbered in `order` (Eigen, natural ordering; the entries are
+// summed in another order, hence 1e-12 on entries of order one), and solve() answers in
+// the caller's numbering.
+TEST(PatternLdlt, FollowsTheCallersEliminationOrder) {
+  const SparseMatrix K = quasi_definite(120, 90, 5, 1e-6);
+  const int n = static_cast<int>(K.rows());
+  Eigen::VectorXi order(n);
+  for (int k = 0; k < n; ++k) order[k] = (k * 37 + 11) % n;  // 37 is prime to n = 121: a permutation
+  ASSERT_EQ(std::set<int>(order.data(), order.data() + n).size(), static_cast<std::size_t>(n));
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> renumber(n);  // variable -> position
+  for (int k = 0; k < n; ++k) renumber.indices()[order[k]] = k;
+  SparseMatrix permuted(n, n);
+  permuted.selfadjointView<Eigen::Lower>() = K.selfadjointView<Eigen::Lower>().twistedBy(renumber);
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>> eigen(permuted);
+  ASSERT_EQ(eigen.info(), Eigen::Success);
+  PatternLdlt ours;
+  ours.analyze(K, order);
+  ASSERT_TRUE(ours.factorize_values(K.valuePtr()));
+  const Eigen::VectorXd d_eigen = eigen.vectorD(), d_ours = ours.vectorD();
+  for (int i = 0; i < n; ++i) ASSERT_NEAR(d_eigen[i], d_ours[i], 1e-12) << "D " << i;
+  ASSERT_EQ(eigen.matrixL().nestedExpression().nonZeros(), ours.matrixL().nestedExpression().nonZeros());
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(n, -1.0, 2.0);
+  const Eigen::VectorXd x = ours.solve(b);
+  EXPECT_LT((K.selfadjointView<Eigen::Lower>() * x - b).norm(), 1e-8 * b.norm());
 }
 
 TEST(PatternLdlt, ReportsAZeroPivotAsEigenDoes) {

@@ -37,7 +37,7 @@ struct Eq5NewtonOptions {
   int newton_iterations = 200;
   double initial_barrier = 1e-6;
   double optimality_tolerance = 1e-10;
-  double proximal_weight = 1e-8;
+  double proximal_weight = 1e-10;
   bool predictor_corrector = true;
   bool prestress_cap = true;  // false: the mean cable force held at the cap (prestress=equal)
 

@@ -51,6 +51,42 @@ constexpr double kLargestShift = 1e20;
 constexpr int kRefinementSteps = 6;
 constexpr double kRefinementTolerance = 1e-14;
 
+// An elimination order for the KKT matrix from its structure, found in a
+// small fraction of the time AMD takes on the whole matrix, with as little
+// fill: the forces (and the cap's slack) first, each coupling only the
+// nodes it joins; then per free node its three positions and its three
+// equilibrium multipliers, the nodes in AMD's order on the node graph; the
+// cable-sum row last (once the forces are eliminated it couples every node).
+// Variables: nq positions (x, y, z per free node), then the forces and the
+// slack, up to n; then the multipliers, the first nq per free node in the
+// positions' node order. `jacobian`: the constraint Jacobian's pattern.
+Eigen::VectorXi structured_kkt_order(const Eigen::SparseMatrix<double>& jacobian, int n, int nq, int size) {
+  const int nodes = nq / 3;
+  // Node graph: nodes a and b are adjacent when block (a, b) of df/dq is
+  // present, i.e. when an element joins them; one entry per 3x3 block.
+  std::vector<Eigen::Triplet<double>> edges;
+  for (int a = 0; a < nodes; ++a) {
+    edges.emplace_back(a, a, 1.0);
+    for (Eigen::SparseMatrix<double>::InnerIterator it(jacobian, 3 * a); it; ++it)
+      if (it.row() < nq && it.row() % 3 == 0) edges.emplace_back(static_cast<int>(it.row()) / 3, a, 1.0);
+  }
+  Eigen::SparseMatrix<double> graph(nodes, nodes);
+  graph.setFromTriplets(edges.begin(), edges.end());
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> node_order;
+  Eigen::AMDOrdering<int>()(graph, node_order);
+
+  Eigen::VectorXi order(size);
+  int k = 0;
+  for (int v = nq; v < n; ++v) order[k++] = v;
+  for (int i = 0; i < nodes; ++i) {
+    const int a = node_order.indices()[i];
+    for (int d = 0; d < 3; ++d) order[k++] = 3 * a + d;
+    for (int d = 0; d < 3; ++d) order[k++] = n + 3 * a + d;
+  }
+  for (int v = n + nq; v < size; ++v) order[k++] = v;
+  return order;
+}
+
 // The KKT matrix [W, J^T; J, -delta_c I] (lower triangle), its pattern and
 // fill-reducing ordering analysed once, values rewritten every factorization.
 class KktSystem {
@@ -75,7 +111,7 @@ class KktSystem {
     hessian_slot_.assign(slot.begin(), slot.begin() + nh);
     jacobian_slot_.assign(slot.begin() + nh, slot.begin() + nh + nj);
     diagonal_slot_.assign(slot.begin() + nh + nj, slot.end());
-    ldlt_.analyze(matrix_);
+    ldlt_.analyze(matrix_, structured_kkt_order(jacobian_pattern, n_, nq_, n_ + mc_));
   }
 
   // Writes and factorizes the matrix; true when it factorized with inertia
