@@ -22,6 +22,8 @@
 #                  side-by-side/, 3 runs, FIGURES_SIDE_BY_SIDE_TIME_LIMIT s, default 30)
 #   gravity-towers.md  the gravity tower family (compare_bench gravity-towers/),
 #                  every backend; gravity-towers.json is the raw output
+#   gravity-towers-10k.md  the same family to 160 layers (9,280 elements) for
+#                  alternating-gn, eq5-newton and ipopt (FIGURES_10K_TIME_LIMIT s, default 120)
 #   ipopt-starts.md  ipopt's starts on gravity prisms and a tower; MUMPS orderings
 #   prestress-factor.md  Eq. 5's cap kappa (--prestress-factor) against the
 #                  geometry change, ipopt and alternating-gn, gravity scenes and characters
@@ -46,7 +48,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# gravity_towers forces_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# gravity_towers gravity_towers_10k forces_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -856,18 +858,21 @@ EOF2
   done
 }
 
-gravity_towers() {
+# gravity_tower_figure NAME TITLE LAYERS FILTER LIMIT: the family at LAYERS, the
+# benchmarks FILTER selects, LIMIT s per solve, into NAME.md and NAME.json.
+gravity_tower_figure() {
+  local name=$1 title=$2 layers=$3 filter=$4 limit=$5
   need_bench
-  local layers=${FIGURES_GRAVITY_TOWER_LAYERS:-10,20,40}
-  step "gravity tower family, layers $layers (time limit $limit s per solve)"
-  local cmd="$cb --benchmark_filter=^gravity-towers/ --gravity_tower_layers=$layers --chain_sizes= --tower_layers= --time_limit=$limit --benchmark_repetitions=1 --benchmark_out=gravity-towers.json --benchmark_out_format=json"
-  header "$out/gravity-towers.md" "The gravity tower family" "$cmd"
-  "$cb" --benchmark_filter='^gravity-towers/' --gravity_tower_layers="$layers" --chain_sizes= --tower_layers= \
-    --time_limit="$limit" --benchmark_repetitions=1 --benchmark_out="$work/gravity-towers.json" \
-    --benchmark_out_format=json >/dev/null 2>"$work/gravity-towers.log"
-  "$py" bench/scripts/report.py --json "$work/gravity-towers.json" --out "$work/gt-report" >"$work/gt-report.txt"
-  cp "$work/gravity-towers.json" "$out/gravity-towers.json"
-  stamp "$out/gravity-towers.json" "$cmd"
+  step "gravity tower family, layers $layers, $filter (time limit $limit s per solve)"
+  local cmd="$cb --benchmark_filter=$filter --gravity_tower_layers=$layers --chain_sizes= --tower_layers= --time_limit=$limit --benchmark_repetitions=1 --benchmark_out=$name.json --benchmark_out_format=json"
+  header "$out/$name.md" "$title" "$cmd"
+  "$cb" --benchmark_filter="$filter" --gravity_tower_layers="$layers" --chain_sizes= --tower_layers= \
+    --time_limit="$limit" --benchmark_repetitions=1 --benchmark_out="$work/$name.json" \
+    --benchmark_out_format=json >/dev/null 2>"$work/$name.log"
+  rm -rf "$work/gt-report"
+  "$py" bench/scripts/report.py --json "$work/$name.json" --out "$work/gt-report" >"$work/gt-report.txt"
+  cp "$work/$name.json" "$out/$name.json"
+  stamp "$out/$name.json" "$cmd"
   {
     echo "Scenes: \`tensegrity generate tower --layers L --struts-per-layer 8 --cables 50L --gravity\`"
     echo "(58 L elements), solved to an equilibrium by alternating-gn, then every free node moved by"
@@ -901,7 +906,21 @@ EOF2
     echo '```'
     sed -n '/^Scaling families/,/^$/p' "$work/gt-report.txt" | grep -E '^(Scaling|  )'
     echo '```'
-  } >>"$out/gravity-towers.md"
+  } >>"$out/$name.md"
+}
+
+# Every backend on the family up to FIGURES_GRAVITY_TOWER_LAYERS (default 40 layers).
+gravity_towers() {
+  gravity_tower_figure gravity-towers "The gravity tower family" "${FIGURES_GRAVITY_TOWER_LAYERS:-10,20,40}" \
+    '^gravity-towers/' "$limit"
+}
+
+# The scaling fit to 9,280 elements (160 layers) for eq5-newton, the
+# alternating-gn it starts from, and Ipopt; the faithful scheme and nlopt,
+# which stop at the limit from 20 layers on, are left out.
+gravity_towers_10k() {
+  gravity_tower_figure gravity-towers-10k "The gravity tower family to 9,280 elements" 10,20,40,80,160 \
+    '^gravity-towers/[^/]+/(alternating-gn|eq5-newton|ipopt)/' "${FIGURES_10K_TIME_LIMIT:-120}"
 }
 
 # --- the outputs shown in docs/OUTPUTS.md and docs/PYTHON.md ------------------------
@@ -1110,7 +1129,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts gravity_towers forces_towers prestress_factor}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts gravity_towers gravity_towers_10k forces_towers prestress_factor}; do
   "$section"
 done
 step "done; figures in $out"

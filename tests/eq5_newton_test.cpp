@@ -205,18 +205,31 @@ TEST(Eq5Newton, MovesNoFartherThanAlternatingGnWithoutGravity) {
 TEST(Eq5Newton, KeepsAlternatingGnsEquilibriumWhenThePolishStops) {
   const Structure scene = scenes::perturbed(scenes::prism(6, 10.0), 0.05, 5u);
   SolveOptions options;
-  options.backend_options = {{"newton_iterations", "1"}};
+  options.backend_options = {{"newton_iterations", "1"}, {"proximal_weight", "1e-8"}};
   const SolveResult r = make_solver("eq5-newton")->Solve(scene, options);
   const SolveResult gn = make_solver("alternating-gn")->Solve(scene, SolveOptions{});
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_EQ(newton_details(r).polish, "max_iterations");
   EXPECT_EQ(newton_details(r).newton_iterations, 1);
+  EXPECT_FALSE(newton_details(r).steady_retry);  // 1e-8 is the steady weight already
   EXPECT_TRUE(r.positions == gn.positions);
   EXPECT_TRUE(r.forces == gn.forces);
   EXPECT_NE(r.message.find("not kept"), std::string::npos) << r.message;
   const nlohmann::json j = newton_details(r).to_json();
   EXPECT_EQ(j.at("polish"), "max_iterations");
   EXPECT_EQ(j.at("start_iterations").get<int>(), newton_details(r).start_iterations);
+  EXPECT_FALSE(j.contains("steady_retry"));
+
+  // With the default (smaller) proximal weight a polish that is not kept is
+  // run once more at 1e-8: two one-iteration polishes, still not kept.
+  SolveOptions default_weight;
+  default_weight.backend_options = {{"newton_iterations", "1"}};
+  const SolveResult retried = make_solver("eq5-newton")->Solve(scene, default_weight);
+  ASSERT_EQ(retried.status, Status::Converged) << retried.message;
+  EXPECT_TRUE(newton_details(retried).steady_retry);
+  EXPECT_EQ(newton_details(retried).newton_iterations, 2);
+  EXPECT_TRUE(retried.positions == gn.positions);
+  EXPECT_EQ(newton_details(retried).to_json().at("steady_retry"), true);
 }
 
 // Under gravity a capped polish that came close (KKT error below 1e-6) but
@@ -254,7 +267,7 @@ TEST(Eq5Newton, UnderGravityFallsBackToTheHeldPolish) {
 
   const Structure prism = read_scene_file(kReferenceDir + "scenes/prism-6-gravity-noise5-s6.scene.json");
   SolveOptions one_step;
-  one_step.backend_options = {{"newton_iterations", "1"}};
+  one_step.backend_options = {{"newton_iterations", "1"}, {"proximal_weight", "1e-8"}};
   const SolveResult far_off = solver->Solve(prism, one_step, DriverControls{false});
   ASSERT_EQ(far_off.status, Status::Converged) << far_off.message;
   EXPECT_FALSE(newton_details(far_off).prestress_held);

@@ -21,6 +21,8 @@ constexpr int kLargestNewtonIterations = 100000;
 // close: the held one is tried next. One that ends far off is not retried, so
 // a hopeless polish on a large scene costs its budget once.
 constexpr double kCameCloseKktError = 1e-6;
+// The proximal weight of the retry when a polish with a smaller one is not kept.
+constexpr double kSteadyProximalWeight = 1e-8;
 
 std::string polish_name(Status s) {
   switch (s) {
@@ -171,6 +173,7 @@ nlohmann::json Eq5NewtonDetails::to_json() const {
                       {"complementarity", complementarity}};
   if (prestress_cap_slack >= 0.0) j["prestress_cap_slack"] = prestress_cap_slack;
   if (prestress_held) j["prestress_held"] = true;
+  if (steady_retry) j["steady_retry"] = true;
   return j;
 }
 
@@ -209,13 +212,28 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // cable force at the cap (a point of the capped problem too), as ipopt's
   // prestress=cap also keeps the held optimum.
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
-  PolishRun run = polish(part, options, newton, scale, newton.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal,
-                         start, recorder);
-  add_counts(run.outcome, *details);
-  if (!run.kept() && run.cap_slack && came_close(run.outcome)) {
-    run = polish(part, options, newton, scale, PrestressRow::Equal, start, recorder);
+  auto polish_sequence = [&](const Eq5NewtonOptions& settings) {
+    PolishRun run = polish(part, options, settings, scale,
+                           settings.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal, start, recorder);
     add_counts(run.outcome, *details);
-    details->prestress_held = true;
+    details->prestress_held = false;
+    if (!run.kept() && run.cap_slack && came_close(run.outcome)) {
+      run = polish(part, options, settings, scale, PrestressRow::Equal, start, recorder);
+      add_counts(run.outcome, *details);
+      details->prestress_held = true;
+    }
+    return run;
+  };
+  PolishRun run = polish_sequence(newton);
+  // A small proximal weight lets the forces follow the self-stresses quickly,
+  // but on degenerate scenes (elements of very different lengths, nearly
+  // coincident nodes) its steps can stall; there the steadier weight of
+  // kSteadyProximalWeight is tried once more from the same start.
+  if (!run.kept() && newton.proximal_weight < kSteadyProximalWeight && recorder.seconds() < options.time_limit_s) {
+    Eq5NewtonOptions steady = newton;
+    steady.proximal_weight = kSteadyProximalWeight;
+    run = polish_sequence(steady);
+    details->steady_retry = true;
   }
   details->polish = run.verified_rejected ? "rejected_by_verification" : polish_name(run.outcome.status);
 

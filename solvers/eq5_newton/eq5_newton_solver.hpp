@@ -20,7 +20,8 @@
 // Options (`--option key=value`): newton_iterations (1 .. 100000, default
 // 200), initial_barrier (mu at the start, (0, 1), default 1e-6),
 // optimality_tolerance (dual infeasibility and complementarity, (0, 1),
-// default 1e-10), proximal_weight (rho on the forces, (0, 1), default 1e-8),
+// default 1e-10), proximal_weight (rho on the forces, (0, 1), default 1e-10;
+// when that polish is not kept it is retried once at 1e-8),
 // barrier (mehrotra | monotone: the barrier parameter's rule, default mehrotra),
 // prestress (cap | equal: under gravity the cable-sum row bounded above by
 // kappa n_c W, or held at it; default cap, as the other backends).
@@ -67,6 +68,9 @@ struct Eq5NewtonDetails : SolverDetails {
   // With prestress=cap: the polish with the cap as a bound was not kept, and a
   // second one held the mean cable force at the cap (the counts above sum both).
   bool prestress_held = false;
+  // The polish with proximal_weight below 1e-8 was not kept and was run again
+  // with 1e-8 (the counts above sum both).
+  bool steady_retry = false;
   nlohmann::json to_json() const override;
 };
 
