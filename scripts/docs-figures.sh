@@ -22,6 +22,8 @@
 #                  side-by-side/, 3 runs, FIGURES_SIDE_BY_SIDE_TIME_LIMIT s, default 30)
 #   gravity-towers.md  the gravity tower family (compare_bench gravity-towers/),
 #                  every backend; gravity-towers.json is the raw output
+#   eq5-newton.md  eq5-newton, alternating-gn and warm-started Ipopt on the gravity towers
+#                  (eq5_newton_bench, medians of 3)
 #   gravity-towers-10k.md  the same family to 160 layers (9,280 elements) for
 #                  alternating-gn, eq5-newton and ipopt (FIGURES_10K_TIME_LIMIT s, default 120)
 #   ipopt-starts.md  ipopt's starts on gravity prisms and a tower; MUMPS orderings
@@ -48,7 +50,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# gravity_towers gravity_towers_10k forces_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# eq5_newton gravity_towers gravity_towers_10k forces_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -858,6 +860,58 @@ EOF2
   done
 }
 
+# eq5-newton against the alternating-gn equilibrium it starts from and Ipopt
+# warm-started at that equilibrium (eq5_newton_bench, medians of 3, one BLAS thread).
+eq5_newton() {
+  local eb="$build/bench/eq5_newton_bench"
+  [ -x "$eb" ] || { echo "docs-figures: $eb missing" >&2; exit 1; }
+  step "eq5-newton, alternating-gn and ipopt-warm on the gravity towers (medians of 3)"
+  local cmd="OPENBLAS_NUM_THREADS=1 $eb --tower_layers=10,20,40 --time_limit=60 --benchmark_filter=^(alternating-gn|eq5-newton|ipopt-warm)/ --benchmark_repetitions=3 --benchmark_out=eq5-newton.json --benchmark_out_format=json"
+  header "$out/eq5-newton.md" "eq5-newton against alternating-gn and a warm-started Ipopt" "$cmd"
+  OPENBLAS_NUM_THREADS=1 "$eb" --tower_layers=10,20,40 --time_limit=60 \
+    --benchmark_filter='^(alternating-gn|eq5-newton|ipopt-warm)/' --benchmark_repetitions=3 \
+    --benchmark_out="$work/eq5-newton.json" --benchmark_out_format=json >/dev/null 2>"$work/eq5-newton.log"
+  "$py" - "$work/eq5-newton.json" >>"$out/eq5-newton.md" <<'EOF2'
+import json, sys
+from collections import defaultdict
+runs = defaultdict(list)
+for b in json.load(open(sys.argv[1]))["benchmarks"]:
+    if b.get("run_type") != "iteration":
+        continue
+    backend, scene = b["name"].split("/")[:2]
+    runs[(scene, backend)].append(b)
+def median(values):
+    v = sorted(values)
+    return v[len(v) // 2]
+print("Scenes: `generate tower --layers L --struts-per-layer 8 --cables 50L --gravity`, solved to an")
+print("equilibrium by alternating-gn, then 1 % node noise (seed 1); `tower-80s-500c-gravity-noise2` is")
+print("`data/bench/tower-80s-500c-gravity.scene.json` with 2 % noise. `ipopt-warm` is")
+print("`ipopt --option start=alternating-gn`. Wall milliseconds, medians of 3; `/ best`: geometry")
+print("change over the smallest on the scene; every row converged and verified.")
+print()
+print("| scene (elements) | backend | ms | iterations (Newton) | geometry change (m) | / best | time / alternating-gn |")
+print("|---|---|---:|---:|---:|---:|---:|")
+scenes = sorted({s for s, _ in runs}, key=lambda s: (s.startswith("tower-80s"), int(s.split("-")[1]) if s.split("-")[1].isdigit() else 0))
+for scene in scenes:
+    rows = {b: r for (s, b), r in runs.items() if s == scene}
+    best = min(median([x["geometry_change"] for x in r]) for r in rows.values())
+    gn_ms = median([x["real_time"] for x in rows["alternating-gn"]])
+    for backend in ("alternating-gn", "eq5-newton", "ipopt-warm"):
+        if backend not in rows:
+            continue
+        r = rows[backend]
+        ms = median([x["real_time"] for x in r])
+        change = median([x["geometry_change"] for x in r])
+        ok = all(x.get("converged", 0) == 1 for x in r)
+        its = int(median([x["iterations"] for x in r]))
+        newton = int(median([x.get("newton_iterations", 0) for x in r]))
+        its_text = f"{its} ({newton})" if backend == "eq5-newton" else f"{its}"
+        label = f"{scene} ({int(r[0]['elements']):,})"
+        print(f"| {label} | {backend}{'' if ok else ' (not converged)'} | {ms:.3g} | {its_text} | {change:.7f} | "
+              f"{change / best:.5f} | {ms / gn_ms:.1f} |")
+EOF2
+}
+
 # gravity_tower_figure NAME TITLE LAYERS FILTER LIMIT: the family at LAYERS, the
 # benchmarks FILTER selects, LIMIT s per solve, into NAME.md and NAME.json.
 gravity_tower_figure() {
@@ -1129,7 +1183,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts gravity_towers gravity_towers_10k forces_towers prestress_factor}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton gravity_towers gravity_towers_10k forces_towers prestress_factor}; do
   "$section"
 done
 step "done; figures in $out"

@@ -21,7 +21,8 @@
 // 200), initial_barrier (mu at the start, (0, 1), default 1e-6),
 // optimality_tolerance (dual infeasibility and complementarity, (0, 1),
 // default 1e-10), proximal_weight (rho on the forces, (0, 1), default 1e-10;
-// when that polish is not kept it is retried once at 1e-8),
+// when that polish is not kept on a part below 4000 elements it is retried
+// once at 1e-8),
 // barrier (mehrotra | monotone: the barrier parameter's rule, default mehrotra),
 // prestress (cap | equal: under gravity the cable-sum row bounded above by
 // kappa n_c W, or held at it; default cap, as the other backends).

@@ -18,10 +18,11 @@
 // the matrix is singular as mu -> 0; the step's right-hand side is the exact
 // residual, so it changes the path, not the solution. delta_c keeps the
 // matrix quasi-definite so that a sparse LDL^T without pivoting (Eigen's
-// SimplicialLDLT, AMD ordering analysed once) is stable; iterative refinement
-// removes it from the solution. The signs of D give the inertia: when it is
-// not (n, mc), delta_w grows (as in Ipopt) until it is, so that the step
-// minimises a model that is convex on the constraints' tangent space.
+// SimplicialLDLT, an elimination order from the structure analysed once) is
+// stable; iterative refinement removes it from the solution. The signs of D
+// give the inertia: when it is not (n, mc), delta_w grows (as in Ipopt) until
+// it is, so that the step minimises a model that is convex on the
+// constraints' tangent space.
 //
 // Steps stay strictly inside the bounds (fraction to the boundary), are
 // accepted by a filter line search on (|c|_1, phi - mu sum log d) (Waechter
