@@ -17,6 +17,7 @@
 #include "model/json_io.hpp"
 #include "model/scene_io.hpp"
 #include "scenes/suites.hpp"
+#include "scenes/towers.hpp"
 #include "solvers/eq5_newton/eq5_newton_solver.hpp"
 #include "solvers/eq5_newton/scaled_eq5.hpp"
 #include "solvers/solver.hpp"
@@ -230,6 +231,24 @@ TEST(Eq5Newton, KeepsAlternatingGnsEquilibriumWhenThePolishStops) {
   EXPECT_EQ(newton_details(retried).newton_iterations, 2);
   EXPECT_TRUE(retried.positions == gn.positions);
   EXPECT_EQ(newton_details(retried).to_json().at("steady_retry"), true);
+}
+
+// From 4000 elements a polish that is not kept is not retried: the
+// 70-layer gravity tower (4,060 elements) with a one-iteration polish.
+TEST(Eq5Newton, NoSteadyRetryOnLargeParts) {
+  scenes::TowerParameters p;
+  p.layers = 70;
+  p.cables = 50 * p.layers;
+  p.gravity = true;
+  const Structure tower = scenes::make_prism_tower(p);
+  ASSERT_EQ(tower.num_elements(), 4060);
+  SolveOptions options;
+  options.backend_options = {{"newton_iterations", "1"}};
+  const SolveResult r = make_solver("eq5-newton")->Solve(tower, options);
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  EXPECT_EQ(newton_details(r).polish, "max_iterations");
+  EXPECT_FALSE(newton_details(r).steady_retry);
+  EXPECT_EQ(newton_details(r).newton_iterations, 1);
 }
 
 // Under gravity a capped polish that came close (KKT error below 1e-6) but
