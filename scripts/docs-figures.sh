@@ -907,7 +907,8 @@ for scene in scenes:
         newton = int(median([x.get("newton_iterations", 0) for x in r]))
         its_text = f"{its} ({newton})" if backend == "eq5-newton" else f"{its}"
         label = f"{scene} ({int(r[0]['elements']):,})"
-        print(f"| {label} | {backend}{'' if ok else ' (not converged)'} | {ms:.3g} | {its_text} | {change:.7f} | "
+        ms_text = f"{ms:,.0f}" if ms >= 100 else f"{ms:.3g}"
+        print(f"| {label} | {backend}{'' if ok else ' (not converged)'} | {ms_text} | {its_text} | {change:.7f} | "
               f"{change / best:.5f} | {ms / gn_ms:.1f} |")
 EOF2
 }
