@@ -51,9 +51,9 @@ constexpr double kLargestShift = 1e20;
 constexpr int kRefinementSteps = 6;
 constexpr double kRefinementTolerance = 1e-14;
 
-// An elimination order for the KKT matrix from its structure, found in a
-// small fraction of the time AMD takes on the whole matrix, with as little
-// fill: the forces (and the cap's slack) first, each coupling only the
+// An elimination order for the KKT matrix from its structure, with as little
+// fill as AMD's on the whole matrix but found on the much smaller node graph
+// (0.1 ms on the 80/500 tower): the forces (and the cap's slack) first, each coupling only the
 // nodes it joins; then per free node its three positions and its three
 // equilibrium multipliers, the nodes in AMD's order on the node graph; the
 // cable-sum row last (once the forces are eliminated it couples every node).
@@ -88,7 +88,7 @@ Eigen::VectorXi structured_kkt_order(const Eigen::SparseMatrix<double>& jacobian
 }
 
 // The KKT matrix [W, J^T; J, -delta_c I] (lower triangle), its pattern and
-// fill-reducing ordering analysed once, values rewritten every factorization.
+// elimination order analysed once, values rewritten every factorization.
 class KktSystem {
  public:
   KktSystem(const Eigen::SparseMatrix<double>& hessian_pattern, const Eigen::SparseMatrix<double>& jacobian_pattern,
