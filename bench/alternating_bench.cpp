@@ -31,7 +31,6 @@
 #include <utility>
 #include <vector>
 
-#include "kernels/process_memory.hpp"
 #include "model/character.hpp"
 #include "model/reference_scenes.hpp"
 #include "scenes/perturb.hpp"
@@ -180,11 +179,4 @@ const bool registered = [] {
 }  // namespace
 }  // namespace tensegrity
 
-int main(int argc, char** argv) {
-  tensegrity::keep_freed_memory_in_process();  // solve after solve, as batch and the server do
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+BENCHMARK_MAIN();

@@ -69,7 +69,6 @@
 #include "solvers/trace_csv.hpp"
 #include "scenes/suites.hpp"
 #include "kernels/blas_threads.hpp"
-#include "kernels/process_memory.hpp"
 
 // ---------------------------------------------------------------------------
 // Heap meter: malloc and friends are interposed for the whole process (shared
@@ -413,7 +412,6 @@ void parse_own_flags(int* argc, char** argv) {
 
 int main(int argc, char** argv) {
   tensegrity::use_one_blas_thread();  // one solve, one core
-  tensegrity::keep_freed_memory_in_process();  // solve after solve, as batch and the server do
   tensegrity::parse_own_flags(&argc, argv);
   tensegrity::register_all();
   benchmark::Initialize(&argc, argv);

@@ -28,7 +28,6 @@
 #include <vector>
 
 #include "bench/gravity_tower_family.hpp"
-#include "kernels/process_memory.hpp"
 #include "model/verify.hpp"
 #include "scenes/towers.hpp"
 #include "solvers/eq5_newton/eq5_newton_solver.hpp"
@@ -135,7 +134,6 @@ std::vector<int> parse_int_list(const char* text) {
 }  // namespace tensegrity
 
 int main(int argc, char** argv) {
-  tensegrity::keep_freed_memory_in_process();  // solve after solve, as batch and the server do
   std::vector<char*> rest;
   for (int i = 0; i < argc; ++i) {
     constexpr const char* kFlag = "--tower_layers=";

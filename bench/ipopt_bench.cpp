@@ -12,7 +12,6 @@
 #include <string>
 #include <vector>
 
-#include "kernels/process_memory.hpp"
 #include "scenes/towers.hpp"
 #include "model/verify.hpp"
 #include "solvers/ipopt/ipopt_solver.hpp"
@@ -65,11 +64,4 @@ const bool kRegistered = [] {
 }  // namespace
 }  // namespace tensegrity
 
-int main(int argc, char** argv) {
-  tensegrity::keep_freed_memory_in_process();  // solve after solve, as batch and the server do
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
+BENCHMARK_MAIN();

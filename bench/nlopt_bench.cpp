@@ -30,7 +30,6 @@
 #include "model/character.hpp"
 #include "model/scene_io.hpp"
 #include "scenes/towers.hpp"
-#include "kernels/process_memory.hpp"
 #include "model/verify.hpp"
 #include "solvers/nlopt/nlopt_solver.hpp"
 #include "solvers/solver.hpp"
@@ -260,7 +259,6 @@ void write_side_by_side_table(const std::string& path) {
 }  // namespace tensegrity
 
 int main(int argc, char** argv) {
-  tensegrity::keep_freed_memory_in_process();  // solve after solve, as batch and the server do
   std::string table;
   int kept = 1;
   for (int i = 1; i < argc; ++i) {
