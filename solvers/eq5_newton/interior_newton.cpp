@@ -53,10 +53,11 @@ constexpr double kRefinementTolerance = 1e-14;
 
 // An elimination order for the KKT matrix from its structure, with as little
 // fill as AMD's on the whole matrix but found on the much smaller node graph
-// (0.1 ms on the 80/500 tower): the forces (and the cap's slack) first, each coupling only the
-// nodes it joins; then per free node its three positions and its three
-// equilibrium multipliers, the nodes in AMD's order on the node graph; the
-// cable-sum row last (once the forces are eliminated it couples every node).
+// (0.1 ms on the 80/500 tower): the forces (and the cap's slack) first, each
+// coupling only the nodes it joins; then per free node its three positions
+// and its three equilibrium multipliers, the nodes in AMD's order on the node
+// graph; the cable-sum row last (once the forces are eliminated it couples
+// every node).
 // Variables: nq positions (x, y, z per free node), then the forces and the
 // slack, up to n; then the multipliers, the first nq per free node in the
 // positions' node order. `jacobian`: the constraint Jacobian's pattern.
