@@ -119,7 +119,7 @@ class SparseNlpTnlp final : public Ipopt::TNLP {
   // Ipopt 3.11 passes no x here: the current iterate is read through the
   // TNLPAdapter (not available in the restoration phase).
   bool intermediate_callback(Ipopt::AlgorithmMode mode, Index iter, Number obj_value, Number inf_pr, Number inf_du,
-                             Number, Number, Number, Number, Number, Index, const Ipopt::IpoptData* ip_data,
+                             Number mu, Number, Number, Number, Number, Index, const Ipopt::IpoptData* ip_data,
                              Ipopt::IpoptCalculatedQuantities* ip_cq) override {
     last_iteration_ = iter;
     if (!on_iteration_) return true;
@@ -128,6 +128,7 @@ class SparseNlpTnlp final : public Ipopt::TNLP {
     it.objective = obj_value;
     it.primal_infeasibility = inf_pr;
     it.dual_infeasibility = inf_du;
+    it.barrier_parameter = mu;
     Ipopt::TNLPAdapter* adapter = nullptr;
     if (mode == Ipopt::RegularMode && ip_data != nullptr && ip_cq != nullptr) {
       auto* orig = dynamic_cast<Ipopt::OrigIpoptNLP*>(Ipopt::GetRawPtr(ip_cq->GetIpoptNLP()));

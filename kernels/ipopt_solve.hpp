@@ -30,7 +30,8 @@ struct IpoptIteration {
   int iteration = 0;
   double objective = 0.0;
   double primal_infeasibility = 0.0;  // max-norm of Ipopt's (scaled) constraint violation
-  double dual_infeasibility = 0.0;
+  double dual_infeasibility = 0.0;    // max-norm of Ipopt's (scaled) dual infeasibility
+  double barrier_parameter = 0.0;     // mu, which bounds the complementarity Ipopt aims at
   // The iterate in the problem's own variables; null in the restoration
   // phase, where Ipopt does not expose it.
   const Eigen::VectorXd* x = nullptr;

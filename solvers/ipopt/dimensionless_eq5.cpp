@@ -103,6 +103,8 @@ void DimensionlessEq5::finalize(const NlpSolution& solution) {
   to_z(solution.x);
   z_final_ = z_;
   has_final_point_ = true;
+  if (ncon_ > nq_ && solution.constraint_multipliers.size() == ncon_)
+    cable_sum_multiplier_ = solution.constraint_multipliers[nq_];
 }
 
 TracePoint DimensionlessEq5::trace_point(const IpoptIteration& it, double max_free_weight) {

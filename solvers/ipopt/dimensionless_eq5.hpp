@@ -8,6 +8,7 @@
 //   Hess_y L(y; obj_factor, lambda_y) = D Hess_z L(z; obj_factor, lambda_y / F0) D.
 #include <Eigen/Core>
 
+#include <limits>
 #include <vector>
 
 #include "kernels/ipopt_solve.hpp"
@@ -47,6 +48,13 @@ class DimensionlessEq5 final : public SparseNlp {
 
   bool has_final_point() const { return has_final_point_; }
   const Eigen::VectorXd& final_point() const { return z_final_; }  // z = (q, sigma)
+  // Ipopt's multiplier of the cable-sum row at the final
+  // point, in the convention of NlpSolution (grad f + J^T lambda - z_L + z_U
+  // = 0); NaN without that row or a final point. At an optimum with the row
+  // held at the prestress cap, lambda >= 0 says that lowering the level
+  // would not bring the geometry closer: the point then also satisfies the
+  // KKT conditions of the problem with the row only bounded above.
+  double cable_sum_multiplier() const { return cable_sum_multiplier_; }
 
  private:
   void to_z(const ConstVector& y);
@@ -59,6 +67,7 @@ class DimensionlessEq5 final : public SparseNlp {
   std::vector<double> jac_factor_, hess_factor_;
   int evaluations_ = 0;
   bool has_final_point_ = false;
+  double cable_sum_multiplier_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace tensegrity

@@ -28,6 +28,7 @@
 // tol=1e-9, max_iter=500. Each value is typed and range-checked by Ipopt's
 // own option registry; an unknown name or a rejected value is an OptionError
 // that names the valid values.
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -75,6 +76,13 @@ struct IpoptDetails : SolverDetails {
   // prestress=cap under gravity: the capped run's change was kept (it was
   // smaller than the held run's and verified).
   bool prestress_cap_kept = false;
+  // Under gravity: Ipopt's multiplier of the held run's cable-sum row
+  // (dimensionless, DimensionlessEq5::cable_sum_multiplier; NaN without one),
+  // and whether it shows the cap binding at a verified held optimum, in which
+  // case prestress=cap runs no capped restart (that optimum satisfies the
+  // capped problem's KKT conditions already).
+  double cable_sum_multiplier = std::numeric_limits<double>::quiet_NaN();
+  bool prestress_cap_binds = false;
   nlohmann::json to_json() const override;
 };
 
