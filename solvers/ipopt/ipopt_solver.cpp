@@ -33,6 +33,8 @@ constexpr const char* kPrestressKey = "prestress";
 // prestress=cap keeps the capped run's answer only when its change is smaller
 // by more than round-off (the two runs often end at the same optimum).
 constexpr double kSignificantlySmaller = 1e-9;
+// Ipopt's `tol` (its scaled optimality error), or --tol when smaller.
+constexpr double kOptimalityTolerance = 1e-12;
 // Ipopt's constraint tolerance is this share of the solution file's (in the
 // same units), a margin for the difference between the two measures.
 constexpr double kToleranceShare = 0.1;
@@ -221,7 +223,7 @@ struct Eq5Runner {
   double max_free_weight;
   IpoptSettings settings;  // without max_iter: each run sets its own
   TraceRecorder& recorder;
-  double optimality_tol = 0.0;  // Ipopt's `tol`
+  double optimality_tol = 0.0;  // Ipopt's `tol`, the user's when given
 
   int next_iteration() const { return recorder.trace().empty() ? 0 : recorder.trace().back().iteration + 1; }
   int evaluations() const { return recorder.trace().empty() ? 0 : recorder.trace().back().evaluations; }
@@ -255,7 +257,9 @@ struct Eq5Runner {
     Eq5Run r;
     r.status = native.status;
     r.message = native.message;
-    if (native.return_code == kSearchDirectionTooSmall && optimal_iterations > 0) {
+    if (native.status == Status::Converged && optimal_iterations >= kRoundOffIterations) {
+      r.message = "Ipopt: optimal to round-off, below what its absolute constraint tolerance can confirm";
+    } else if (native.return_code == kSearchDirectionTooSmall && optimal_iterations > 0) {
       // Ipopt's tiny-step exit at an iterate already optimal to round-off
       // (the same test as the early stop): the optimum, not a failure.
       r.status = Status::Converged;
@@ -351,7 +355,8 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   settings.set("hessian_approximation", "exact");
   settings.set("mu_strategy", "adaptive");
   // Tight: on scenes that need no change the barrier leaves a drift of order mu.
-  settings.set("tol", std::min(1e-12, options.tolerance));  // runner.optimality_tol below
+  runner.optimality_tol = std::min(kOptimalityTolerance, options.tolerance);
+  settings.set("tol", runner.optimality_tol);
   settings.set("constr_viol_tol", constraint_tolerance);
   settings.set("acceptable_tol", 1e-8);
   settings.set("acceptable_constr_viol_tol", constraint_tolerance);
@@ -364,7 +369,6 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   // with solves on other threads it stops early (two busy threads: after half
   // the budget). The wall-clock limit is checked in every iteration instead.
   settings.options.insert(settings.options.end(), ipopt_options.typed.begin(), ipopt_options.typed.end());
-  runner.optimality_tol = std::min(1e-12, options.tolerance);
   for (const IpoptOption& o : ipopt_options.typed)
     if (o.name == "tol" && std::holds_alternative<double>(o.value)) runner.optimality_tol = std::get<double>(o.value);
   const int budget = options.iteration_budget(kDefaultIterationBudget);
