@@ -430,15 +430,15 @@ TEST(IpoptSolver, CableSumMultiplierIsTheSensitivityToTheCap) {
            {"prism-3-gravity", read_scene_file(reference + "prism-3-gravity.scene.json")},
            {"prism-6-gravity, gravity +x",
             family_case(read_scene_file(reference + "prism-6-gravity.scene.json"), "gravity-direction", "+x")}}) {
-    auto held_at = [&](double kappa) {
+    auto held_at = [&solver](const Structure& scene, double kappa) {
       SolveOptions o;
       o.prestress_factor = kappa;
       o.backend_options = {{"start", "scene"}, {"prestress", "equal"}};
-      return solver.Solve(s, o, DriverControls{false});
+      return solver.Solve(scene, o, DriverControls{false});
     };
-    const SolveResult centre = held_at(kKappa);
-    const SolveResult up = held_at(kKappa * (1.0 + kStep));
-    const SolveResult down = held_at(kKappa * (1.0 - kStep));
+    const SolveResult centre = held_at(s, kKappa);
+    const SolveResult up = held_at(s, kKappa * (1.0 + kStep));
+    const SolveResult down = held_at(s, kKappa * (1.0 - kStep));
     for (const SolveResult* r : {&centre, &up, &down}) ASSERT_EQ(r->status, Status::Converged) << name << ": " << r->message;
     const auto* details = dynamic_cast<const IpoptDetails*>(centre.details.front().get());
     ASSERT_NE(details, nullptr);
