@@ -68,7 +68,10 @@ struct PolishRun {
   Eigen::VectorXd forces;
   Verification check;
   double objective = 0.0;
-  bool kept() const { return outcome.status == Status::Converged && !verified_rejected; }
+  // The stationary stop's projected iterate verified and is closer to the
+  // scene than alternating-gn's equilibrium (interior_newton.hpp).
+  bool projected = false;
+  bool kept() const { return (outcome.status == Status::Converged || projected) && !verified_rejected; }
 };
 
 // The polish of Eq. 5 with the cable-sum row `row`; every accepted step is
@@ -94,6 +97,7 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   settings.initial_barrier = newton.initial_barrier;
   settings.proximal_weight = newton.proximal_weight;
   settings.predictor_corrector = newton.predictor_corrector;
+  settings.stationary_stop = newton.stationary_stop;
   settings.time_limit_s = std::max(0.0, options.time_limit_s - recorder.seconds());
 
   PolishRun run;
@@ -110,11 +114,18 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
         const Verification v = verify(part, run.positions, run.forces, options.tolerance);
         recorder.record(trace_point(v, first_record + iteration, problem.objective(y)));
       });
-  if (run.outcome.status != Status::Converged) return run;
+  const bool stationary = run.outcome.stationary_projected;
+  if (run.outcome.status != Status::Converged && !stationary) return run;
   positions_and_forces(run.outcome.y);
   run.check = verify(part, run.positions, run.forces, options.tolerance);
-  run.verified_rejected = !run.check.ok;
   run.objective = problem.objective(run.outcome.y);
+  if (stationary) {
+    // Never farther than the start: a stationary point that is not closer
+    // to the scene than alternating-gn's equilibrium is not an answer.
+    run.projected = run.check.ok && run.objective < problem.objective(problem.to_scaled(z0));
+    return run;
+  }
+  run.verified_rejected = !run.check.ok;
   return run;
 }
 
@@ -146,6 +157,7 @@ Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
   o.proximal_weight = reader.number("proximal_weight", o.proximal_weight, ValueRange::open(0.0, 1.0));
   o.predictor_corrector = reader.choice("barrier", "mehrotra", {"mehrotra", "monotone"}) == "mehrotra";
   o.prestress_cap = reader.choice("prestress", "cap", {"cap", "equal"}) == "cap";
+  o.stationary_stop = reader.choice("stationary_stop", "on", {"on", "off"}) == "on";
   reader.reject_unknown();
   return o;
 }
@@ -234,14 +246,30 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // coincident nodes) its steps can stall; there the steadier weight of
   // kSteadyProximalWeight is tried once more from the same start. Not on
   // large parts, where a polish that is not kept has already cost seconds.
-  if (!run.kept() && newton.proximal_weight < kSteadyProximalWeight && part.num_elements() < kSteadyRetryElements &&
-      recorder.seconds() < options.time_limit_s) {
+  // A held polish that ended stationary is only a fallback's answer (the
+  // capped optimum can lie much closer): the retry runs then too, and the
+  // closer of the two answers is kept.
+  const bool stationary_fallback = run.kept() && run.projected && details->prestress_held;
+  if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
+      part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
     Eq5NewtonOptions steady = newton;
     steady.proximal_weight = kSteadyProximalWeight;
-    run = polish_sequence(steady);
+    const Eq5NewtonDetails before = *details;
+    PolishRun retry = polish_sequence(steady);
     details->steady_retry = true;
+    if (stationary_fallback && !(retry.kept() && retry.check.geometry_change < run.check.geometry_change)) {
+      // The first answer stays, with its own KKT residuals; the counts sum both.
+      details->prestress_held = before.prestress_held;
+      details->dual_infeasibility = before.dual_infeasibility;
+      details->constraint_violation = before.constraint_violation;
+      details->complementarity = before.complementarity;
+    } else {
+      run = std::move(retry);
+    }
   }
-  details->polish = run.verified_rejected ? "rejected_by_verification" : polish_name(run.outcome.status);
+  details->polish = run.verified_rejected ? "rejected_by_verification"
+                    : run.projected        ? "objective_stationary"
+                                           : polish_name(run.outcome.status);
 
   // 3. Keep the Newton answer only when it is a verified KKT point.
   if (!run.kept()) {
@@ -255,7 +283,8 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
   SolveResult result;
   result.status = Status::Converged;
-  result.message = "local optimum of Eq. 5" + std::string(details->prestress_held ? " held at the prestress cap" : "") +
+  result.message = std::string(run.projected ? "approximate local optimum" : "local optimum") + " of Eq. 5" +
+                   std::string(details->prestress_held ? " held at the prestress cap" : "") +
                    ": " + run.outcome.message + " after " + std::to_string(details->newton_iterations) +
                    " Newton iterations from alternating-gn's equilibrium (" +
                    std::to_string(details->start_iterations) + " iterations)";

@@ -14,8 +14,13 @@
 //      below 1e-6, but was not kept, a second one holds it there) or held
 //      there (prestress=equal).
 //   3. The Newton answer is kept when its KKT test passed and model/verify
-//      accepts it; otherwise the answer is alternating-gn's verified
-//      equilibrium, and the details say why the polish was not kept.
+//      accepts it, or when the stationary stop of interior_newton.hpp ended
+//      it (the objective stopped changing while the KKT error crawled) and
+//      its last iterate, projected onto the constraints, verifies and is
+//      closer to the scene than the start (`polish: objective_stationary`,
+//      an approximate local optimum); otherwise the answer is
+//      alternating-gn's verified equilibrium, and the details say why the
+//      polish was not kept.
 //
 // Options (`--option key=value`): newton_iterations (1 .. 100000, default
 // 200), initial_barrier (mu at the start, (0, 1), default 1e-6),
@@ -25,7 +30,8 @@
 // once at 1e-8),
 // barrier (mehrotra | monotone: the barrier parameter's rule, default mehrotra),
 // prestress (cap | equal: under gravity the cable-sum row bounded above by
-// kappa n_c W, or held at it; default cap, as the other backends).
+// kappa n_c W, or held at it; default cap, as the other backends),
+// stationary_stop (on | off: the stationary stop above, default on).
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -42,6 +48,7 @@ struct Eq5NewtonOptions {
   double proximal_weight = 1e-10;
   bool predictor_corrector = true;
   bool prestress_cap = true;  // false: the mean cable force held at the cap (prestress=equal)
+  bool stationary_stop = true;
 
   static Eq5NewtonOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
@@ -51,8 +58,9 @@ struct Eq5NewtonOptions {
 struct Eq5NewtonDetails : SolverDetails {
   int start_iterations = 0;          // alternating-gn's iterations
   double start_geometry_change = 0;  // of alternating-gn's equilibrium (m)
-  // "kept": the Newton answer is the result; "not_run": alternating-gn did
-  // not converge; otherwise the Newton stop that was not kept
+  // "kept": the Newton answer is the result; "objective_stationary": the
+  // projected iterate of the stationary stop is; "not_run": alternating-gn
+  // did not converge; otherwise the Newton stop that was not kept
   // ("max_iterations", "stalled", "numerical_error", "time_limit",
   // "rejected_by_verification").
   std::string polish = "not_run";

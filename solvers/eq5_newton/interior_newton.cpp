@@ -47,6 +47,17 @@ constexpr double kShiftGrowth = 8.0;
 constexpr double kShiftReduction = 1.0 / 3.0;
 constexpr double kSmallestShift = 1e-20;
 constexpr double kLargestShift = 1e20;
+// Stationary stop (interior_newton.hpp): the window of iterations, the
+// largest relative objective change over it, the largest KKT residual, the
+// least share of the KKT error the window must have kept (so that a run
+// converging fast is never stopped), and how close mu must be to its floor;
+// then at most this many projection steps.
+constexpr int kStationaryWindow = 10;
+constexpr double kStationaryObjectiveChange = 1e-5;
+constexpr double kStationaryKktError = 1e-5;
+constexpr double kStationaryKktShare = 0.1;
+constexpr double kStationaryBarrierFactor = 2.0;
+constexpr int kProjectionSteps = 6;
 // Iterative refinement of each solve against the matrix without delta_c.
 constexpr int kRefinementSteps = 6;
 constexpr double kRefinementTolerance = 1e-14;
@@ -179,6 +190,35 @@ void evaluate(ScaledEq5& problem, const Eigen::VectorXd& y, MeritPoint& p) {
   p.barrier = -p.d.array().log().sum();
 }
 
+// Moves y towards c(y) = 0 by minimal-norm Newton steps in the metric
+// I + Sigma (Sigma = v / d on the bounded variables, so that those at their
+// bounds stay put): [I + Sigma, J^T; J, -delta_c I] (dy, lambda) = (0, -c),
+// until |c|_inf is below `tolerance` or stops falling (its round-off floor).
+// False when a step leaves the bounds or is not finite.
+bool project_onto_constraints(ScaledEq5& problem, KktSystem& kkt, const Eigen::VectorXd& lambda,
+                              const Eigen::VectorXd& v, double tolerance, Eigen::VectorXd& y, MeritPoint& here) {
+  const int n = problem.num_variables(), mc = problem.num_constraints();
+  Eigen::SparseMatrix<double> no_curvature = problem.hessian(y, lambda);
+  no_curvature.coeffs().setZero();
+  constexpr double kUnitMetric = 1.0;
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + mc), step, y_next;
+  MeritPoint next;
+  for (int k = 0; k < kProjectionSteps && here.c.cwiseAbs().maxCoeff() > tolerance; ++k) {
+    const Eigen::VectorXd metric = v.cwiseQuotient(here.d);
+    if (!kkt.factorize(no_curvature, problem.jacobian(y), metric, kUnitMetric)) return false;
+    rhs.tail(mc) = -here.c;
+    kkt.solve(rhs, step);
+    if (!step.allFinite()) return false;
+    y_next = y + step.head(n);
+    evaluate(problem, y_next, next);
+    if (!next.inside) return false;
+    if (next.c.cwiseAbs().maxCoeff() >= here.c.cwiseAbs().maxCoeff()) break;
+    y.swap(y_next);
+    std::swap(here, next);
+  }
+  return true;
+}
+
 }  // namespace
 
 InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::VectorXd& y0,
@@ -216,6 +256,11 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   const double theta_min = kSmallInfeasibility * std::max(1.0, here.infeasibility);
   std::vector<std::pair<double, double>> filter;  // (theta, phi_mu) pairs a trial must not be dominated by
   double filter_mu = mu;
+  // phi and the KKT error at every point reached, for the stationary stop.
+  std::vector<double> objective_history, kkt_history;
+  objective_history.reserve(static_cast<std::size_t>(std::max(0, settings.max_iterations)) + 1);
+  kkt_history.reserve(objective_history.capacity());
+  objective_history.push_back(here.objective);
   out.y = y;
   out.lambda = lambda;
 
@@ -243,6 +288,24 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     if (!settings.predictor_corrector) {
       while (mu > mu_min && barrier_error() <= kBarrierTolerance * mu)
         mu = std::max(mu_min, std::min(kBarrierDecrease * mu, std::pow(mu, kBarrierExponent)));
+    }
+    const std::size_t points = objective_history.size();
+    const double kkt_error = std::max({out.dual_infeasibility, out.constraint_violation, out.complementarity});
+    kkt_history.push_back(kkt_error);
+    if (settings.stationary_stop && points > kStationaryWindow && mu <= kStationaryBarrierFactor * mu_min && kkt_error <= kStationaryKktError &&
+        kkt_error >= kStationaryKktShare * kkt_history[points - 1 - kStationaryWindow] &&
+        std::abs(objective_history[points - 1 - kStationaryWindow] - here.objective) <=
+            kStationaryObjectiveChange * std::abs(here.objective)) {
+      out.status = Status::Stalled;
+      out.message = "the objective stopped changing before the KKT test passed";
+      out.stationary_projected =
+          project_onto_constraints(problem, kkt, lambda, v, settings.constraint_tolerance, y, here);
+      if (out.stationary_projected) {
+        out.y = y;
+        out.constraint_violation = here.c.cwiseAbs().maxCoeff();
+        if (observer) observer(iteration + 1, y);
+      }
+      return out;
     }
     if (iteration >= settings.max_iterations) {
       out.status = Status::MaxIterations;
@@ -293,7 +356,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       }
       const double mu_now = here.d.dot(v) / m;
       const double mu_affine = (here.d + alpha_p * ds).dot(v + alpha_d * dv_affine) / m;
-      mu = std::clamp(mu_now * std::pow(mu_affine / mu_now, 3.0), mu_min, mu_now);
+      mu = std::clamp(mu_now * std::pow(mu_affine / mu_now, 3.0), mu_min, std::max(mu_min, mu_now));
       corrector = ds.cwiseProduct(dv_affine);
     }
     // Filter line search on (theta, phi_mu) = (|c|_1, phi - mu sum log d)
@@ -392,6 +455,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       const double low = mu / (kMultiplierSafeguard * here.d[e]), high = kMultiplierSafeguard * mu / here.d[e];
       v[e] = std::clamp(v[e], low, high);
     }
+    objective_history.push_back(here.objective);
     problem.gradient(y, g);
     J = &problem.jacobian(y);
     if (observer) observer(iteration + 1, y);

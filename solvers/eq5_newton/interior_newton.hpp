@@ -33,6 +33,15 @@
 // barrier problem is solved to 10 mu. Stop: dual infeasibility and
 // complementarity below optimality_tolerance and |c|_inf below
 // constraint_tolerance (all dimensionless).
+//
+// Stationary stop: on large scenes with many self-stresses the forces drift
+// along them with full steps, each step's bilinear term f = A(q) sigma leaving
+// a residual of |dq| |dsigma|, so the KKT test is approached only linearly while
+// the geometry no longer changes. When, at the barrier floor, the objective has
+// changed by less than a relative 1e-5 over 10 iterations with every KKT
+// residual below 1e-5, the run ends `stationary`, and its last iterate is
+// projected onto c(y) = 0 (minimal-norm Newton steps in the metric I +
+// Sigma, so that forces at their bounds stay put) to constraint_tolerance.
 #include <Eigen/Core>
 #include <functional>
 #include <limits>
@@ -52,6 +61,7 @@ struct InteriorNewtonSettings {
   // mu from Mehrotra's predictor every iteration (with its second-order
   // correction) instead of the monotone rule.
   bool predictor_corrector = false;
+  bool stationary_stop = true;  // the stationary stop above
   double time_limit_s = std::numeric_limits<double>::infinity();
 };
 
@@ -67,6 +77,9 @@ struct InteriorNewtonOutcome {
   double dual_infeasibility = 0.0;
   double constraint_violation = 0.0;
   double complementarity = 0.0;
+  // The stationary stop above ended the run (status Stalled) and `y` is its
+  // last iterate projected onto the constraints to constraint_tolerance.
+  bool stationary_projected = false;
 };
 
 // Called after every accepted step with the iteration number and the point.
