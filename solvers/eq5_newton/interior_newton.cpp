@@ -289,13 +289,17 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       while (mu > mu_min && barrier_error() <= kBarrierTolerance * mu)
         mu = std::max(mu_min, std::min(kBarrierDecrease * mu, std::pow(mu, kBarrierExponent)));
     }
-    const std::size_t points = objective_history.size();
     const double kkt_error = std::max({out.dual_infeasibility, out.constraint_violation, out.complementarity});
     kkt_history.push_back(kkt_error);
-    if (settings.stationary_stop && points > kStationaryWindow && mu <= kStationaryBarrierFactor * mu_min && kkt_error <= kStationaryKktError &&
-        kkt_error >= kStationaryKktShare * kkt_history[points - 1 - kStationaryWindow] &&
-        std::abs(objective_history[points - 1 - kStationaryWindow] - here.objective) <=
-            kStationaryObjectiveChange * std::abs(here.objective)) {
+    auto objective_stationary = [&] {
+      const std::size_t points = objective_history.size();
+      if (!settings.stationary_stop || points <= kStationaryWindow) return false;
+      const std::size_t then = points - 1 - kStationaryWindow;
+      return mu <= kStationaryBarrierFactor * mu_min && kkt_error <= kStationaryKktError &&
+             kkt_error >= kStationaryKktShare * kkt_history[then] &&
+             std::abs(objective_history[then] - here.objective) <= kStationaryObjectiveChange * std::abs(here.objective);
+    };
+    if (objective_stationary()) {
       out.status = Status::Stalled;
       out.message = "the objective stopped changing before the KKT test passed";
       out.stationary_projected =
