@@ -249,7 +249,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // A held polish that ended stationary is only a fallback's answer (the
   // capped optimum can lie much closer): the retry runs then too, and the
   // closer of the two answers is kept.
-  const bool stationary_fallback = run.kept() && run.projected && details->prestress_held;
+  const bool stationary_fallback = run.projected && details->prestress_held;
   if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
       part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
     Eq5NewtonOptions steady = newton;
@@ -271,7 +271,8 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
                     : run.projected        ? "objective_stationary"
                                            : polish_name(run.outcome.status);
 
-  // 3. Keep the Newton answer only when it is a verified KKT point.
+  // 3. Keep the Newton answer only when it is a verified KKT point or the
+  // stationary stop's verified projection, closer than the start.
   if (!run.kept()) {
     if (static_cast<int>(recorder.trace().size()) > start_records)
       recorder.record(trace_point(start_check, static_cast<int>(recorder.trace().size()), 0.0));
