@@ -38,7 +38,8 @@ void Impl::build(const SparseMatrix& A, const ForceScale& scale,
   normalised = scale.has_normalisation() && o.normalisation_weight > 0.0 &&
                scale.normalisation_row.size() == m;
   w2 = normalised ? o.normalisation_weight * o.normalisation_weight : 0.0;
-  target = normalised ? scale.normalisation_target : 0.0;
+  scale_target = normalised ? scale.normalisation_target : 0.0;
+  target = scale_target + (normalised ? target_shift : 0.0);
   f0 = scale.reference_force > 0.0 && std::isfinite(scale.reference_force) ? scale.reference_force
                                                                             : 1.0;
   lower = scale.lower.size() == m ? scale.lower : Eigen::VectorXd::Constant(m, -kInf);
@@ -334,6 +335,13 @@ StressQpResult StressQp::solve() {
 
 StressQpResult StressQp::solve(const Eigen::VectorXd& sigma0) { return solve_from(sigma0, true); }
 
+void StressQp::set_shift(const Eigen::VectorXd& load, double target) {
+  Impl& q = *impl_;
+  q.load_shift = load;
+  q.target_shift = std::isfinite(target) ? target : 0.0;
+  q.target = q.scale_target + (q.normalised ? q.target_shift : 0.0);
+}
+
 StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_start) {
   const SparseMatrix& A = eq_.A();
   Impl& q = *impl_;
@@ -351,6 +359,11 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
 
   const Eigen::VectorXd& fg_full = eq_.gravity_load();
   st.fg = eq_.has_gravity() && fg_full.size() == q.rows ? &fg_full : nullptr;
+  if (q.load_shift.size() == q.rows) {
+    if (st.fg) q.shifted_load = *st.fg + q.load_shift;
+    else q.shifted_load = q.load_shift;
+    st.fg = &q.shifted_load;
+  }
   st.fg_max = st.fg ? st.fg->lpNorm<Eigen::Infinity>() : 0.0;
   st.tolerance = std::max(options_.optimality_tolerance,
                           stress_qp_detail::ProjectedNewtonConstants::kRoundingFactor * kEps * std::sqrt(m + 1.0));

@@ -157,6 +157,13 @@ class StressQp {
   // Cold start from the reference forces (+F0 cables, -F0 struts, projected).
   StressQpResult solve();
 
+  // Shifts the data of the following solves: f_g + load (N, 3 n_free; empty:
+  // no shift) and t + target (N; ignored without the normalisation). The
+  // inner problem in the forces of an augmented Lagrangian on the residual
+  // vector (multipliers lambda, penalty rho) is this QP with load F0 lambda_f /
+  // rho; the reported residuals are then those of the shifted data.
+  void set_shift(const Eigen::VectorXd& load, double target);
+
   // Switches the polish for the following solves (StressQpOptions::
   // polish_to_optimum, max_polish_steps) without a new analysis of the pattern.
   void set_polish(bool to_optimum, int max_steps) {

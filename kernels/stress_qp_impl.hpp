@@ -103,8 +103,12 @@ struct Impl {
   int m = 0;      // elements (unknowns)
   int rows = 0;   // 3 n_free (equations)
   double mu = 0.0, w2 = 0.0, target = 0.0, f0 = 1.0;
+  double scale_target = 0.0;  // t of the ForceScale; target = t + the shift's
   bool normalised = false;
   Eigen::VectorXd lower, upper, c;
+  // StressQp::set_shift: a load added to f_g (empty: none) and f_g + it.
+  Eigen::VectorXd load_shift, shifted_load;
+  double target_shift = 0.0;
 
   // A's pattern as analysed (column starts, row indices, value offsets), to
   // detect a topology change and to address A's values directly.

@@ -28,6 +28,9 @@
 #                  alternating-gn, eq5-newton and ipopt (FIGURES_10K_TIME_LIMIT s, default 120),
 #                  at the solve's default target relative residual 1e-8
 #   ipopt-starts.md  ipopt's starts on gravity prisms and a tower; MUMPS orderings
+#   nlopt-variants.md  the nlopt backend's formulations and algorithms beside Ipopt on
+#                  the reference and conformance scenes and the scorpions (nlopt_bench
+#                  side-by-side/, medians of 3, FIGURES_TIME_LIMIT s per solve)
 #   prestress-factor.md  Eq. 5's cap kappa (--prestress-factor) against the
 #                  geometry change, ipopt and alternating-gn, gravity scenes and characters
 #   ipopt-auto-stress.md  ipopt start=scene against start=auto over the stress
@@ -51,7 +54,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton gravity_towers gravity_towers_10k forces_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k forces_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -1190,9 +1193,32 @@ EOF2
   } >>"$out/prestress-factor.md"
 }
 
+# The nlopt backend's variants side by side with Ipopt on the reference and
+# conformance scenes and the scorpions (nlopt_bench side-by-side/, medians of 3).
+nlopt_variants() {
+  local nb="$build/bench/nlopt_bench"
+  [ -x "$nb" ] || { echo "docs-figures: $nb missing" >&2; exit 1; }
+  step "nlopt variants and ipopt side by side (medians of 3)"
+  local cmd="$nb --benchmark_filter=^side-by-side/ --benchmark_repetitions=3 --time_limit=$limit --table=nlopt-variants.md"
+  header "$out/nlopt-variants.md" "The nlopt backend's variants side by side with Ipopt" "$cmd"
+  "$nb" --benchmark_filter='^side-by-side/' --benchmark_repetitions=3 --time_limit="$limit" \
+    --table="$work/nlopt-variants-table.md" >/dev/null 2>"$work/nlopt-variants.log"
+  {
+    echo "Every solve without the driver's check that a scene already stands. Solver seconds"
+    echo "(\`stats.seconds\`), medians of 3; geometry change in m; a status in place of a change"
+    echo "means a repetition ended with it (the median change in brackets). \`nlopt-full\`:"
+    echo "\`formulation=full\`; \`varpro-slsqp\`: \`varpro_algorithm=slsqp\`; \`varpro-al-tnewton\`: the"
+    echo "multiplier method around NLopt's truncated Newton; \`nlopt-varpro\`: the default (the"
+    echo "multiplier method around L-BFGS). \`scorpion\` balances at Eq. 5's force level as built;"
+    echo "\`scorpion-minimal\` (the minimal blocks) lies 0.12 mm from an optimum that moves it."
+    echo
+    cat "$work/nlopt-variants-table.md"
+  } >>"$out/nlopt-variants.md"
+}
+
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton gravity_towers gravity_towers_10k forces_towers prestress_factor}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k forces_towers prestress_factor}; do
   "$section"
 done
 step "done; figures in $out"

@@ -19,7 +19,7 @@ namespace tensegrity::nlopt_detail {
 // The full formulation's algorithms (`algorithm`).
 enum class Algorithm { AlLbfgs, AlTnewton, AlMma, AlCcsaq, PenaltyLbfgs, AuglagEqLbfgs, Slsqp };
 // The reduced formulation's algorithms (`varpro_algorithm`).
-enum class ReducedAlgorithm { Auto, Slsqp, Ccsaq, Mma, AuglagLbfgs };
+enum class ReducedAlgorithm { Auto, Slsqp, Ccsaq, Mma, AuglagLbfgs, AlLbfgs, AlTnewton };
 
 const char* algorithm_name(Algorithm a);
 const char* reduced_algorithm_name(ReducedAlgorithm a);
@@ -34,6 +34,7 @@ struct NloptRun {
   double xtol_rel = 1e-15;
   long maxeval = 0;
   double penalty_initial = 10.0;
+  double varpro_penalty_initial = 100.0;
   double penalty_growth = 10.0;
   double penalty_max = 1e12;
   int lbfgs_memory = 0;
@@ -84,8 +85,14 @@ Status status_from_nlopt(nlopt::result code, ForcedStop forced, const Verificati
 PartAnswer solve_full(const Structure& part, const SolveOptions& options, const NloptRun& run,
                       TraceRecorder& recorder);
 
-// Eq. 5 reduced to the positions by variable projection (nlopt_varpro.cpp).
+// Eq. 5 reduced to the positions by variable projection, one scalar
+// constraint (nlopt_varpro.cpp).
 PartAnswer solve_reduced(const Structure& part, const SolveOptions& options, const NloptRun& run,
                          const Eigen::VectorXd& initial_forces, TraceRecorder& recorder);
+
+// The same reduced formulation by the method of multipliers on its residual
+// vector (nlopt_varpro_multipliers.cpp): varpro_algorithm al-lbfgs, al-tnewton.
+PartAnswer solve_reduced_multipliers(const Structure& part, const SolveOptions& options, const NloptRun& run,
+                                     const Eigen::VectorXd& initial_forces, TraceRecorder& recorder);
 
 }  // namespace tensegrity::nlopt_detail

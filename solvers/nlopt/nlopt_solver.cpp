@@ -36,6 +36,8 @@ constexpr ReducedAlgorithmEntry kReducedAlgorithms[] = {
     {"ccsaq", ReducedAlgorithm::Ccsaq},
     {"mma", ReducedAlgorithm::Mma},
     {"auglag-lbfgs", ReducedAlgorithm::AuglagLbfgs},
+    {"al-lbfgs", ReducedAlgorithm::AlLbfgs},
+    {"al-tnewton", ReducedAlgorithm::AlTnewton},
 };
 
 void fill_stats(SolveResult& r, const Verification& v, int iterations, double seconds) {
@@ -77,12 +79,66 @@ NloptRun resolve(const NloptOptions& o, const SolveOptions& options) {
                               : std::min(per_iteration * options.iteration_budget(kDefaultIterationBudget),
                                          kLargestEvaluationBudget);
   run.penalty_initial = o.penalty_initial;
+  run.varpro_penalty_initial = o.varpro_penalty_initial;
   run.penalty_growth = o.penalty_growth;
   run.penalty_max = o.penalty_max;
   run.lbfgs_memory = o.lbfgs_memory;
   run.init_from_qp = o.init == "qp";
   run.varpro_rounds = o.varpro_rounds;
   return run;
+}
+
+// varpro_algorithm=auto: the multiplier method with this share of the
+// evaluation budget and of the time limit; where it ends unverified, the
+// scalar-constraint route with the rest.
+constexpr double kAutoMultiplierShare = 0.5;
+
+ReducedAlgorithm scalar_route_for(const Structure& part) {
+  // SLSQP's dense subproblem costs the cube of the variable count per
+  // iteration and cannot be interrupted, so larger parts take CCSAQ.
+  return 3 * part.num_free_nodes() <= kLargestDenseSlsqpVariables ? ReducedAlgorithm::Slsqp : ReducedAlgorithm::Ccsaq;
+}
+
+// The multiplier method reaches the optimum in a fraction of the QP solves
+// of the scalar route where the equilibrium set has codimension above one,
+// but stalls on near-degenerate geometry (nearly coincident nodes, nearly
+// parallel elements) where the scalar route converges; auto runs the first
+// and, where it ends unverified, the second from the scene, keeping the
+// answer with the smaller residual. `route` names what ran.
+PartAnswer solve_reduced_auto(const Structure& part, const SolveOptions& options, const NloptRun& o,
+                              const Eigen::VectorXd& initial_forces, TraceRecorder& recorder, std::string& route) {
+  NloptRun first = o;
+  first.reduced_algorithm = ReducedAlgorithm::AlLbfgs;
+  first.maxeval = std::max(1L, static_cast<long>(kAutoMultiplierShare * static_cast<double>(o.maxeval)));
+  SolveOptions first_options = options;
+  first_options.time_limit_s = kAutoMultiplierShare * options.time_limit_s;
+  PartAnswer answer = solve_reduced_multipliers(part, first_options, first, initial_forces, recorder);
+  route = reduced_algorithm_name(first.reduced_algorithm);
+  const Verification first_check = verify(part, answer.positions, answer.forces, options.tolerance);
+  if (first_check.ok || recorder.out_of_time() || answer.end.forced == ForcedStop::NonFinite) return answer;
+
+  // maxeval bounds NLopt's evaluations, which are the iterations.
+  const long remaining = o.maxeval - answer.end.iterations;
+  if (remaining < 1) return answer;
+  NloptRun second = o;
+  second.reduced_algorithm = scalar_route_for(part);
+  second.maxeval = remaining;
+  auto& trace = recorder.trace();
+  const std::size_t first_points = trace.size();
+  PartAnswer fallback = solve_reduced(part, options, second, initial_forces, recorder);
+  // One trace: the second run's iterations continue the first's.
+  for (std::size_t i = first_points; i < trace.size(); ++i) {
+    trace[i].iteration += answer.end.iterations;
+    trace[i].evaluations += answer.end.iterations;
+  }
+  fallback.end.iterations += answer.end.iterations;
+  fallback.end.evaluations += answer.end.evaluations;
+  route += std::string(", then ") + reduced_algorithm_name(second.reduced_algorithm);
+  const Verification second_check = verify(part, fallback.positions, fallback.forces, options.tolerance);
+  if (second_check.ok || second_check.residual <= first_check.residual) return fallback;
+  answer.end.iterations = fallback.end.iterations;
+  answer.end.evaluations = fallback.end.evaluations;
+  return answer;
 }
 
 }  // namespace nlopt_detail
@@ -116,12 +172,16 @@ NloptOptions NloptOptions::FromPairs(const OptionPairs& pairs) {
   o.xtol_rel = reader.number("xtol_rel", o.xtol_rel, ValueRange::positive());
   o.maxeval = reader.integer("maxeval", static_cast<int>(o.maxeval), 1, static_cast<int>(kLargestEvaluationBudget));
   o.penalty_initial = reader.number("penalty_initial", o.penalty_initial, ValueRange::positive());
+  o.varpro_penalty_initial =
+      reader.number("varpro_penalty_initial", o.varpro_penalty_initial, ValueRange::positive());
   o.penalty_growth = reader.number("penalty_growth", o.penalty_growth, ValueRange::open(1.0, std::numeric_limits<double>::infinity()));
   o.penalty_max = reader.number("penalty_max", o.penalty_max, ValueRange::positive());
   o.lbfgs_memory = reader.integer("lbfgs_memory", o.lbfgs_memory, 0, kLargestLbfgsMemory);
   o.init = reader.choice("init", o.init, {"qp", "reference"});
   reader.reject_unknown();
   if (o.penalty_max < o.penalty_initial) reader.fail("penalty_max", "must be at least penalty_initial");
+  if (o.penalty_max < o.varpro_penalty_initial)
+    reader.fail("penalty_max", "must be at least varpro_penalty_initial");
   if (o.formulation == "varpro" && full_algorithm_given)
     reader.fail("algorithm", "applies to formulation=full (formulation=varpro takes varpro_algorithm)");
   if (o.formulation == "full" && pairs.count("varpro_algorithm") > 0)
@@ -145,6 +205,8 @@ bool NloptOptions::IsValid(std::string* why) const {
   if (maxeval < 0 || maxeval > kLargestEvaluationBudget) return fail("maxeval must be in [0, 2^30]");
   if (!(penalty_initial > 0.0 && penalty_growth > 1.0 && penalty_max >= penalty_initial))
     return fail("penalty_initial > 0, penalty_growth > 1 and penalty_max >= penalty_initial");
+  if (!(varpro_penalty_initial > 0.0 && penalty_max >= varpro_penalty_initial))
+    return fail("varpro_penalty_initial > 0 and penalty_max >= varpro_penalty_initial");
   if (lbfgs_memory < 0 || lbfgs_memory > kLargestLbfgsMemory) return fail("lbfgs_memory must be in [0, 1000]");
   if (init != "qp" && init != "reference") return fail("init must be qp or reference");
   return true;
@@ -153,15 +215,17 @@ bool NloptOptions::IsValid(std::string* why) const {
 SolveResult NloptSolver::DoSolve(const PartProblem& problem, const NloptOptions& nlopt_options) const {
   const Structure& part = problem.part;
   const SolveOptions& options = problem.options;
-  NloptRun o = resolve(nlopt_options, options);
-  // SLSQP's dense subproblem costs the cube of the variable count per
-  // iteration and cannot be interrupted, so larger parts take CCSAQ.
-  if (o.reduced_algorithm == ReducedAlgorithm::Auto)
-    o.reduced_algorithm = 3 * part.num_free_nodes() <= kLargestDenseSlsqpVariables ? ReducedAlgorithm::Slsqp
-                                                                                   : ReducedAlgorithm::Ccsaq;
+  const NloptRun o = resolve(nlopt_options, options);
   TraceRecorder recorder(options.time_limit_s);
-  const PartAnswer answer = o.reduced ? solve_reduced(part, options, o, problem.initial_forces, recorder)
-                                      : solve_full(part, options, o, recorder);
+  std::string route = reduced_algorithm_name(o.reduced_algorithm);
+  PartAnswer answer;
+  if (!o.reduced) answer = solve_full(part, options, o, recorder);
+  else if (o.reduced_algorithm == ReducedAlgorithm::Auto)
+    answer = solve_reduced_auto(part, options, o, problem.initial_forces, recorder, route);
+  else if (o.reduced_algorithm == ReducedAlgorithm::AlLbfgs || o.reduced_algorithm == ReducedAlgorithm::AlTnewton)
+    answer = solve_reduced_multipliers(part, options, o, problem.initial_forces, recorder);
+  else
+    answer = solve_reduced(part, options, o, problem.initial_forces, recorder);
   const RunEnd& end = answer.end;
 
   SolveResult result;
@@ -173,7 +237,8 @@ SolveResult NloptSolver::DoSolve(const PartProblem& problem, const NloptOptions&
   result.trace = std::move(recorder.trace());
   fill_stats(result, v, end.iterations, recorder.seconds());
   std::ostringstream message;
-  if (o.reduced) message << "varpro " << reduced_algorithm_name(o.reduced_algorithm);
+  if (o.reduced && o.reduced_algorithm == ReducedAlgorithm::Auto) message << "varpro auto (" << route << ")";
+  else if (o.reduced) message << "varpro " << route;
   else message << algorithm_name(o.algorithm);
   message << ": " << to_string(result.status) << " after " << end.iterations << " iterations, " << end.evaluations
           << " evaluations (last NLopt result " << result_name(end.code) << ")";

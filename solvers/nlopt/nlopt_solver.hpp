@@ -2,17 +2,24 @@
 // The `nlopt` backend: Eq. 5 (formulations/minimal_geometry_change_nlp.hpp)
 // solved with NLopt's local gradient algorithms, in one of two formulations.
 //
-// formulation=varpro (reduced_residual.hpp, nlopt_varpro.cpp): variable
-// projection. The stress QP (Eq. 4) gives the forces for given positions, and
-// NLopt minimises |q - q0|^2 / L^2 over the positions alone subject to one
-// inequality, sqrt(R(q)) <= tau, R the QP's optimal residual (relative to F0)
-// with its gradient from the envelope theorem:
-//   varpro_algorithm  auto (default: slsqp up to kLargestDenseSlsqpVariables
-//                     position variables, ccsaq above), slsqp (NLopt's SLSQP,
-//                     dense), ccsaq, mma (the CCSA methods), auglag-lbfgs
-//                     (NLopt's AUGLAG around LD_LBFGS)
-//   varpro_rounds     NLopt runs at most, each with tau ten times smaller when
-//                     the verification rejected the previous one (4)
+// formulation=varpro (reduced_residual.hpp): variable projection. The
+// stress QP (Eq. 4) gives the forces for given positions, R(q) is its optimal
+// residual (relative to F0) with its gradient from the envelope theorem, and
+// NLopt works on the positions alone, in one of two ways:
+//  - the method of multipliers on the residual vector (nlopt_varpro_multipliers.cpp):
+//    min_q |q - q0|^2 / L^2 + (rho / 2) min_sigma |r + lambda / rho|^2 with
+//    NLopt's L-BFGS or truncated Newton, then lambda += rho r;
+//  - one scalar constraint (nlopt_varpro.cpp): min |q - q0|^2 / L^2 subject
+//    to sqrt(R(q)) <= tau.
+//   varpro_algorithm  auto (default: al-lbfgs with half the budget, then where
+//                     it ends unverified slsqp up to kLargestDenseSlsqpVariables
+//                     position variables, ccsaq above), al-lbfgs, al-tnewton
+//                     (the multiplier method), slsqp (NLopt's SLSQP, dense),
+//                     ccsaq, mma (the CCSA methods), auglag-lbfgs (NLopt's
+//                     AUGLAG around LD_LBFGS)
+//   varpro_penalty_initial  rho at the start of the multiplier method (100)
+//   varpro_rounds     scalar route: NLopt runs at most, each with tau ten times
+//                     smaller when the verification rejected the previous one (4)
 //
 // formulation=full (nlopt_full*.cpp): NLopt has no sparse linear algebra, and
 // its constrained algorithms either need a dense Jacobian of full row rank
@@ -60,9 +67,9 @@ namespace tensegrity {
 // Largest L-BFGS / TNEWTON vector storage an option may ask for.
 inline constexpr int kLargestLbfgsMemory = 1000;
 
-// varpro_algorithm=auto uses SLSQP up to this many position variables: beyond
-// it one SLSQP iteration (dense, cubic in the variables) can outlast a time
-// limit, which NLopt checks only between evaluations.
+// varpro_algorithm=auto falls back to SLSQP up to this many position
+// variables: beyond it one SLSQP iteration (dense, cubic in the variables) can
+// outlast a time limit, which NLopt checks only between evaluations.
 inline constexpr int kLargestDenseSlsqpVariables = 600;
 
 // Most NLopt runs of formulation=varpro an option may ask for.
@@ -76,7 +83,8 @@ struct NloptOptions {
   double ftol_rel = 1e-15;             // NLopt stopping tolerances of each NLopt run
   double xtol_rel = 1e-15;
   long maxeval = 0;                    // total evaluations; 0: 100 x the iteration budget
-  double penalty_initial = 10.0;       // rho at the start
+  double penalty_initial = 10.0;       // rho at the start (formulation=full)
+  double varpro_penalty_initial = 100.0;  // rho at the start (varpro al-lbfgs, al-tnewton)
   double penalty_growth = 10.0;        // factor when |c| did not shrink fourfold
   double penalty_max = 1e12;
   int lbfgs_memory = 0;                // 0: NLopt's heuristic

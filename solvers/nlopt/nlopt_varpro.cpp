@@ -1,4 +1,5 @@
-// The reduced formulation (formulation=varpro): NLopt moves the positions
+// The reduced formulation's scalar route (formulation=varpro with
+// varpro_algorithm slsqp, ccsaq, mma, auglag-lbfgs): NLopt moves the positions
 // only, the stress QP supplies the forces (solvers/nlopt/reduced_residual.hpp):
 //
 //   min_y |y - y0|^2   s.t.   g(y) = sqrt(R(y)) - tau <= 0.

@@ -32,8 +32,15 @@ namespace tensegrity {
 class ReducedResidual {
  public:
   // `scale` is the part's force scale for Eq. 5; `initial_forces` (N) warm-start
-  // the first QP solve (ignored unless sized to the part's elements).
-  ReducedResidual(const Structure& part, const ForceScale& scale, const Eigen::VectorXd& initial_forces);
+  // the first QP solve (ignored unless sized to the part's elements). With
+  // `proximal_forces` the QP picks, among equally good forces, those closest
+  // to the previous evaluation's (StressQpOptions::proximal): on parts whose
+  // equilibrium matrix has a null space, R is then not differentiable in the
+  // strict sense (its gradient depends on which optimal forces the QP
+  // returns), and forces that follow the path keep that gradient consistent
+  // from one evaluation to the next, which L-BFGS's line search needs.
+  ReducedResidual(const Structure& part, const ForceScale& scale, const Eigen::VectorXd& initial_forces,
+                  bool proximal_forces = false);
 
   int num_variables() const { return static_cast<int>(y0_.size()); }
   // y = 0: the scene's geometry.
@@ -43,6 +50,17 @@ class ReducedResidual {
   // R(y); with grad non-null also dR/dy. Each call solves the stress QP at y,
   // warm-started from the forces of the previous call.
   double evaluate(const double* y, double* grad);
+
+  // The residual vector r = (f / F0, w (c^T sigma - t) / F0) has
+  // num_residuals() entries. With multipliers lambda and penalty rho, the
+  // following evaluations return R and dR/dy of the shifted residual
+  // r + lambda / rho instead: the QP's data shifted (StressQp::set_shift) so
+  // that the forces minimise |r + lambda / rho|^2, which is an augmented
+  // Lagrangian's inner problem in the forces. An empty lambda: no shift.
+  int num_residuals() const { return num_variables() + 1; }
+  void set_multipliers(const Eigen::VectorXd& lambda, double rho);
+  // r of the last evaluation, unshifted.
+  void residual_vector(Eigen::VectorXd& r) const;
 
   // Of the last evaluation: the forces sigma* (N), f = A sigma* + f_g (N), the
   // residual of docs/FORMATS.md (largest free-node |f_i|, N) and the QP's status.
@@ -76,6 +94,8 @@ class ReducedResidual {
   double max_free_weight_ = 0.0;  // N; 0 without gravity
   double normalisation_weight_ = 0.0;  // w; 0 without cables
   Eigen::VectorXd q0_, y0_, q_, sigma_, f_, jf_;
+  Eigen::VectorXd load_shift_, shifted_f_;  // F0 lambda_f / rho (N); f + it
+  double target_shift_ = 0.0;               // N
   StressQpStatus qp_status_ = StressQpStatus::NumericalFailure;
   long qp_solves_ = 0;
 };
