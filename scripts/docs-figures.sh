@@ -55,7 +55,8 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k forces_towers prestress_factor; ipopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k forces_towers prestress_factor; ipopt_auto_stress and
+# nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -782,6 +783,25 @@ ipopt_auto_stress() {
     "$py" bench/scripts/compare_stress.py "$work/stress-ipopt-scene.json" "$work/stress-ipopt-auto.json" --list
     echo '```'
   } >>"$out/ipopt-auto-stress.md"
+}
+
+nlopt_auto_stress() {
+  step "nlopt-auto-stress.md: nlopt varpro_algorithm=slsqp vs auto, the whole stress test"
+  local cmd="$tg stress-test --trials 1 --jobs 2 --time-limit 10 --solvers nlopt --option varpro_algorithm=slsqp|auto --quiet --out stress-nlopt-ALGORITHM.json"
+  for algorithm in slsqp auto; do
+    "$tg" stress-test --trials 1 --jobs 2 --time-limit 10 --solvers nlopt --option "varpro_algorithm=$algorithm" \
+      --data data --quiet --out "$work/stress-nlopt-$algorithm.json" >/dev/null || true
+  done
+  header "$out/nlopt-auto-stress.md" "nlopt: varpro_algorithm=slsqp against auto on the stress test" "$cmd" \
+    "&& bench/scripts/compare_stress.py stress-nlopt-slsqp.json stress-nlopt-auto.json --list"
+  {
+    echo "Every stress-test scene has at most 600 position variables, where \`slsqp\` is what"
+    echo "\`auto\` falls back to; \`auto\` runs the multiplier method (\`al-lbfgs\`) first."
+    echo
+    echo '```'
+    "$py" bench/scripts/compare_stress.py "$work/stress-nlopt-slsqp.json" "$work/stress-nlopt-auto.json" --list
+    echo '```'
+  } >>"$out/nlopt-auto-stress.md"
 }
 
 ipopt_starts() {
