@@ -136,8 +136,9 @@ PartAnswer solve_reduced_auto(const Structure& part, const SolveOptions& options
   route += std::string(", then ") + reduced_algorithm_name(second.reduced_algorithm);
   const Verification second_check = verify(part, fallback.positions, fallback.forces, options.tolerance);
   if (second_check.ok || second_check.residual <= first_check.residual) return fallback;
-  answer.end.iterations = fallback.end.iterations;
-  answer.end.evaluations = fallback.end.evaluations;
+  // The first answer with how the whole solve ended (its own end was at its
+  // share of the budget, not the solve's).
+  answer.end = fallback.end;
   return answer;
 }
 
@@ -180,7 +181,7 @@ NloptOptions NloptOptions::FromPairs(const OptionPairs& pairs) {
   o.init = reader.choice("init", o.init, {"qp", "reference"});
   reader.reject_unknown();
   if (o.penalty_max < o.penalty_initial) reader.fail("penalty_max", "must be at least penalty_initial");
-  if (o.penalty_max < o.varpro_penalty_initial)
+  if (o.formulation == "varpro" && o.penalty_max < o.varpro_penalty_initial)
     reader.fail("penalty_max", "must be at least varpro_penalty_initial");
   if (o.formulation == "varpro" && full_algorithm_given)
     reader.fail("algorithm", "applies to formulation=full (formulation=varpro takes varpro_algorithm)");
@@ -205,8 +206,8 @@ bool NloptOptions::IsValid(std::string* why) const {
   if (maxeval < 0 || maxeval > kLargestEvaluationBudget) return fail("maxeval must be in [0, 2^30]");
   if (!(penalty_initial > 0.0 && penalty_growth > 1.0 && penalty_max >= penalty_initial))
     return fail("penalty_initial > 0, penalty_growth > 1 and penalty_max >= penalty_initial");
-  if (!(varpro_penalty_initial > 0.0 && penalty_max >= varpro_penalty_initial))
-    return fail("varpro_penalty_initial > 0 and penalty_max >= varpro_penalty_initial");
+  if (!(varpro_penalty_initial > 0.0 && (formulation != "varpro" || penalty_max >= varpro_penalty_initial)))
+    return fail("varpro_penalty_initial > 0 and, for varpro, penalty_max >= varpro_penalty_initial");
   if (lbfgs_memory < 0 || lbfgs_memory > kLargestLbfgsMemory) return fail("lbfgs_memory must be in [0, 1000]");
   if (init != "qp" && init != "reference") return fail("init must be qp or reference");
   return true;

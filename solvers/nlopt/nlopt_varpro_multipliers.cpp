@@ -9,8 +9,8 @@
 // whose inner minimum over the forces is the stress QP with a shifted load
 // (ReducedResidual::set_multipliers) and whose gradient in y follows from the
 // envelope theorem, with NLopt's L-BFGS or truncated Newton; then
-// lambda += rho r and rho grows by penalty_growth when |r| did not shrink
-// fourfold.
+// lambda += rho r and rho grows by penalty_growth when an inner solve met its
+// gradient test and |r| did not shrink fourfold.
 // Every residual direction carries its own multiplier, which is what the one
 // scalar constraint of the SLSQP route lacks where the equilibrium set has
 // codimension above one: SLSQP then creeps along the set, this does not.
@@ -33,8 +33,9 @@ namespace {
 // an inexact inner solve early, a tight one near equilibrium.
 constexpr double kInnerToleranceShare = 0.1;
 constexpr double kLargestInnerTolerance = 1e-2;
-// The answer's inner solve must have met this relative stationarity: a point
-// that balances after a loose inner solve need not be Eq. 5's optimum.
+// The answer's inner solve must have met this relative stationarity, or
+// ended by NLopt's own tests (no further progress at these multipliers): a
+// point that balances after a loose inner solve need not be Eq. 5's optimum.
 constexpr double kFinalStationarity = 1e-6;
 // Below this |2 (y - y0)|_inf the stationarity test is absolute.
 constexpr double kGradientFloor = 1e-12;
@@ -203,7 +204,10 @@ PartAnswer solve_reduced_multipliers(const Structure& part, const SolveOptions& 
     // balance a y that is not yet Eq. 5's optimum, wherever the equilibrium
     // set is thicker than a point's neighbourhood needs.
     const Eigen::Matrix3Xd positions = reduced.positions(y.data());
-    const Verification check = verify(part, positions, reduced.forces(), kStopShare * options.tolerance);
+    // verify() checks the nodes; the cable-sum row (Eq. 5's force level) is r's last entry.
+    const double cable_sum_bound = kStopShare * options.tolerance * reduced.load_scale() / reduced.reference_force();
+    Verification check = verify(part, positions, reduced.forces(), kStopShare * options.tolerance);
+    check.ok = check.ok && std::abs(r[n]) <= cable_sum_bound;
     if (check.ok && !loose_stop) {
       answer.positions = positions;
       answer.forces = reduced.forces();
@@ -238,7 +242,8 @@ PartAnswer solve_reduced_multipliers(const Structure& part, const SolveOptions& 
       answer.forces = best.forces;
     }
   }
-  // As in the SLSQP route, an iteration is a stress-QP solve.
+  // As in the SLSQP route, an iteration is an NLopt evaluation (one stress-QP
+  // solve each; the extra solves at the outer iterations' ends are not counted).
   end.iterations = static_cast<int>(std::min<long>(s.evaluations, std::numeric_limits<int>::max()));
   end.evaluations = reduced.qp_solves();
   return answer;
