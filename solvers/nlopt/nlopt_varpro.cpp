@@ -64,21 +64,6 @@ double squared_distance(unsigned n, const double* y, double* grad, void* data) {
   return value;
 }
 
-void record(ReducedState& s, const double* y) {
-  const ReducedResidual& r = *s.reduced;
-  TracePoint t;
-  // The first evaluation is at the start: iteration 0, as in every backend's trace.
-  t.evaluations = static_cast<int>(std::min<long>(s.evaluations, std::numeric_limits<int>::max()));
-  t.iteration = t.evaluations - 1;
-  t.residual = r.max_node_residual();
-  t.relative_residual = r.relative_residual();
-  double squared = 0.0;
-  for (int i = 0; i < r.num_variables(); ++i) squared += (y[i] - s.y0[i]) * (y[i] - s.y0[i]);
-  t.geometry_change = r.length() * std::sqrt(squared);
-  t.objective = squared;
-  s.recorder->record(t);
-}
-
 // g(y) = sqrt(R(y)) - tau and its gradient dR/dy / (2 sqrt R).
 double residual_constraint(unsigned n, const double* y, double* grad, void* data) {
   auto& s = *static_cast<ReducedState*>(data);
@@ -95,7 +80,7 @@ double residual_constraint(unsigned n, const double* y, double* grad, void* data
     const double factor = norm > 0.0 ? 0.5 / norm : 0.0;
     for (unsigned i = 0; i < n; ++i) grad[i] = factor * s.residual_gradient[i];
   }
-  record(s, y);
+  s.recorder->record(s.reduced->trace_point(y, s.evaluations));
   if (norm <= s.target) {
     double squared = 0.0;
     for (unsigned i = 0; i < n; ++i) squared += (y[i] - s.y0[i]) * (y[i] - s.y0[i]);
@@ -152,7 +137,7 @@ double reduced_residual(unsigned, const double* y, double* grad, void* data) {
     s.opt->force_stop();
     return HUGE_VAL;
   }
-  record(s, y);
+  s.recorder->record(s.reduced->trace_point(y, s.evaluations));
   return value;
 }
 

@@ -62,20 +62,6 @@ struct MultiplierState {
   std::vector<double> stationary_point;
 };
 
-void record(MultiplierState& s, const double* y) {
-  const ReducedResidual& r = *s.reduced;
-  TracePoint t;
-  t.evaluations = static_cast<int>(std::min<long>(s.evaluations, std::numeric_limits<int>::max()));
-  t.iteration = t.evaluations - 1;
-  t.residual = r.max_node_residual();
-  t.relative_residual = r.relative_residual();
-  double squared = 0.0;
-  for (int i = 0; i < r.num_variables(); ++i) squared += y[i] * y[i];
-  t.geometry_change = r.length() * std::sqrt(squared);
-  t.objective = squared;
-  s.recorder->record(t);
-}
-
 // Phi(y) and its gradient 2 y + (rho / 2) dR/dy (y0 = 0: the scene).
 double augmented_lagrangian(unsigned n, const double* y, double* grad, void* data) {
   auto& s = *static_cast<MultiplierState*>(data);
@@ -94,7 +80,7 @@ double augmented_lagrangian(unsigned n, const double* y, double* grad, void* dat
     s.opt->force_stop();
     return HUGE_VAL;
   }
-  record(s, y);
+  s.recorder->record(s.reduced->trace_point(y, s.evaluations));
   if (grad != nullptr) {
     double largest = 0.0, objective_gradient = 0.0;
     for (unsigned i = 0; i < n; ++i) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace tensegrity {
 namespace {
@@ -93,6 +94,18 @@ double ReducedResidual::relative_residual() const {
   const double load = max_free_weight_ > 0.0 ? max_free_weight_ : sigma_.cwiseAbs().maxCoeff();
   const double residual = max_node_residual();
   return load > 0.0 ? residual / load : residual;
+}
+
+TracePoint ReducedResidual::trace_point(const double* y, long evaluations) const {
+  TracePoint t;
+  t.evaluations = static_cast<int>(std::min<long>(evaluations, std::numeric_limits<int>::max()));
+  t.iteration = t.evaluations - 1;
+  t.residual = max_node_residual();
+  t.relative_residual = relative_residual();
+  const double squared = (Eigen::Map<const Eigen::VectorXd>(y, num_variables()) - y0_).squaredNorm();
+  t.geometry_change = length_ * std::sqrt(squared);
+  t.objective = squared;
+  return t;
 }
 
 Eigen::Matrix3Xd ReducedResidual::positions(const double* y) const {

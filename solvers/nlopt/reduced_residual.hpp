@@ -26,6 +26,7 @@
 #include "formulations/force_scale.hpp"
 #include "kernels/stress_qp.hpp"
 #include "model/structure.hpp"
+#include "solvers/solver.hpp"
 
 namespace tensegrity {
 
@@ -78,6 +79,11 @@ class ReducedResidual {
   // The relative residual (docs/FORMATS.md) of the last evaluation: the residual over
   // the largest free-node weight under gravity, else over max |sigma*|.
   double relative_residual() const;
+
+  // The trace record of the last evaluation, made at y and counted as the
+  // `evaluations`-th (the first, at the start, is iteration 0): geometry
+  // change L |y - start| (m), objective |y - start|^2. `seconds` is the recorder's.
+  TracePoint trace_point(const double* y, long evaluations) const;
 
   // All node positions (3 x n, m) at y; fixed nodes copied from the scene.
   Eigen::Matrix3Xd positions(const double* y) const;
