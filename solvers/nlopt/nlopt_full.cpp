@@ -131,15 +131,8 @@ RunEnd run_augmented_lagrangian(ScaledProblem& p, std::vector<double>& y,
   end.code = nlopt::MAXEVAL_REACHED;
   const int outer_budget = so.iteration_budget(kDefaultIterationBudget);
   for (int outer = 0; outer < outer_budget; ++outer) {
-    const double remaining_time = so.time_limit_s - recorder.seconds();
-    if (remaining_time <= 0.0) {
-      end.code = nlopt::MAXTIME_REACHED;
-      break;
-    }
-    if (s.evaluations >= o.maxeval) {
-      end.code = nlopt::MAXEVAL_REACHED;
-      break;
-    }
+    const double remaining_time = outer_time_left(so, recorder, s.evaluations, o.maxeval, end.code);
+    if (remaining_time <= 0.0) break;
     inner.set_maxtime(remaining_time);
     inner.set_maxeval(static_cast<int>(std::min<long>(o.maxeval - s.evaluations, 1L << 30)));
     s.omega = std::clamp(0.1 * violation, 1e-11, 1e-2);

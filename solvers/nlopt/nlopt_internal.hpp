@@ -66,6 +66,22 @@ struct PartAnswer {
   RunEnd end;
 };
 
+// Before an outer loop's next NLopt run: the seconds left, or 0 with `code`
+// set to what ran out (MAXTIME_REACHED, MAXEVAL_REACHED).
+inline double outer_time_left(const SolveOptions& so, const TraceRecorder& recorder, long evaluations, long maxeval,
+                              nlopt::result& code) {
+  const double remaining = so.time_limit_s - recorder.seconds();
+  if (remaining <= 0.0) {
+    code = nlopt::MAXTIME_REACHED;
+    return 0.0;
+  }
+  if (evaluations >= maxeval) {
+    code = nlopt::MAXEVAL_REACHED;
+    return 0.0;
+  }
+  return remaining;
+}
+
 // Runs NLopt and returns its result code. The C++ interface reports the
 // negative codes as exceptions (mythrow in nlopt.hpp); translating them back to
 // the codes they stand for is lossless, so status_from_nlopt is the one place

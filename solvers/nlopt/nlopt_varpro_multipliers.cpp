@@ -146,15 +146,8 @@ PartAnswer solve_reduced_multipliers(const Structure& part, const SolveOptions& 
   end.code = nlopt::MAXEVAL_REACHED;
   const int outer_budget = options.iteration_budget(kDefaultIterationBudget);
   for (int outer = 0; outer < outer_budget; ++outer) {
-    const double remaining_time = options.time_limit_s - recorder.seconds();
-    if (remaining_time <= 0.0) {
-      end.code = nlopt::MAXTIME_REACHED;
-      break;
-    }
-    if (s.evaluations >= o.maxeval) {
-      end.code = nlopt::MAXEVAL_REACHED;
-      break;
-    }
+    const double remaining_time = outer_time_left(options, recorder, s.evaluations, o.maxeval, end.code);
+    if (remaining_time <= 0.0) break;
     nlopt::opt inner(inner_algorithm(o.reduced_algorithm), static_cast<unsigned>(n));
     inner.set_min_objective(augmented_lagrangian, &s);
     inner.set_ftol_rel(o.ftol_rel);
