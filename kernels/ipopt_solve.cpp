@@ -22,6 +22,14 @@ namespace {
 using Ipopt::Index;
 using Ipopt::Number;
 
+// MUMPS's workspace as a percentage above its own estimate. With Ipopt's
+// default, 1000, MUMPS allocates eleven times the estimate at every
+// factorization, and on large scenes mapping and faulting in those pages
+// costs more than the factorization (docs/BACKENDS.md); when the estimate
+// falls short MUMPS says so, and Ipopt doubles the percentage and factorizes
+// again.
+constexpr int kMumpsWorkspacePercent = 100;
+
 // Ipopt treats |bound| >= 1e19 (nlp_{lower,upper}_bound_inf) as absent.
 constexpr double kIpoptInfinity = 2e19;
 
@@ -229,6 +237,7 @@ IpoptSolveResult solve_with_ipopt(SparseNlp& problem, const IpoptSettings& setti
     Ipopt::OptionsList& options = *app->Options();
     options.SetStringValue("sb", "yes");
     options.SetIntegerValue("print_level", settings.verbose ? 5 : 0);
+    options.SetIntegerValue("mumps_mem_percent", kMumpsWorkspacePercent);
     for (const IpoptOption& option : settings.options)
       if (!set_option(options, option)) {
         result.message = "Ipopt rejected the option " + option.name;

@@ -45,7 +45,7 @@ enum class IterationControl {
 
 struct IpoptSettings {
   // Applied in order after the defaults (sb=yes, print_level 0 or 5 with
-  // verbose); a later value of the same option wins.
+  // verbose, mumps_mem_percent 100); a later value of the same option wins.
   std::vector<IpoptOption> options;
   bool verbose = false;  // Ipopt's log to stderr (never stdout, which may carry a solution)
   std::function<IterationControl(const IpoptIteration&)> on_iteration;  // optional

@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "model/character.hpp"
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
 #include "model/scene_io.hpp"
@@ -236,16 +237,16 @@ Structure family_case(const Structure& base, const std::string& family, const st
 }
 
 // start=auto runs Ipopt from alternating-gn's equilibrium and from the scene
-// and keeps the closer verified answer. On prism-7-gravity with the stress
-// test's 30 % node noise the warm start ends in a local optimum more than six
-// times farther than the cold one (2.86 m against 0.43 m); on prism-8-gravity
-// with its near-parallel strut (0.01 rad) the cold one ends four times farther
-// than the warm one.
+// and keeps the closer verified answer. On prism-4-gravity with the stress
+// test's near-parallel strut (1e-6 rad) the warm start ends in a local
+// optimum 17 % farther than the cold one (0.786 m against 0.671 m); on
+// prism-8-gravity with its near-parallel strut (0.01 rad) the cold one ends
+// four times farther than the warm one.
 TEST(IpoptSolver, AutoStartKeepsTheCloserOfTheWarmAndTheColdAnswer) {
   const IpoptSolver solver;
   const std::string data = std::string(TENSEGRITY_SOURCE_DIR) + "/data";
-  const Structure prism7_noise =
-      family_case(read_scene_file(data + "/reference/prism-7-gravity.scene.json"), "noise", "0.3");
+  const Structure prism4_near_parallel =
+      family_case(read_scene_file(data + "/reference/prism-4-gravity.scene.json"), "near-parallel", "1e-06rad");
   const Structure prism8_near_parallel =
       family_case(read_scene_file(data + "/reference/prism-8-gravity.scene.json"), "near-parallel", "0.01rad");
   auto with_start = [](const char* start) {
@@ -255,7 +256,7 @@ TEST(IpoptSolver, AutoStartKeepsTheCloserOfTheWarmAndTheColdAnswer) {
     return o;
   };
   for (const auto& [name, s, cold_closer] : std::vector<std::tuple<std::string, Structure, bool>>{
-           {"prism-7-gravity noise 0.3", prism7_noise, true},
+           {"prism-4-gravity near-parallel 1e-06rad", prism4_near_parallel, true},
            {"prism-8-gravity near-parallel 0.01rad", prism8_near_parallel, false}}) {
     const SolveResult cold = solver.Solve(s, with_start("scene"), DriverControls{false});
     const SolveResult warm = solver.Solve(s, with_start("alternating-gn"), DriverControls{false});
@@ -346,6 +347,36 @@ TEST(IpoptSolver, SceneStartUnderGravityHoldsTheLevelAtTheCap) {
     std::printf("[ %s ] %d iterations, change %.6g m\n", name.c_str(), r.stats.iterations, r.stats.geometry_change);
     EXPECT_LT(r.stats.iterations, 1000) << name;
   }
+}
+
+// Under gravity the run from alternating-gn's equilibrium starts, too, at
+// forces with the mean cable force held at the cap. alternating-gn's own
+// forces leave the level to the load: on the scorpion of the minimal blocks
+// they violate the held row by 5e2 in units of F0, and from them Ipopt first
+// moved 0.09 m away (the optimum is 0.12 mm from the scene) and took 37
+// iterations to the optimum that the run from the scene reaches.
+TEST(IpoptSolver, WarmStartUnderGravityHoldsTheLevelAtTheCap) {
+  const Structure s =
+      build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/minimal/scorpion.character.json")
+          .structure;
+  auto with_start = [](const char* start) {
+    SolveOptions o = no_shortcut();
+    o.backend_options = {{"start", start}};
+    return o;
+  };
+  const SolveResult warm = IpoptSolver().Solve(s, with_start("alternating-gn"), DriverControls{false});
+  const SolveResult cold = IpoptSolver().Solve(s, with_start("scene"), DriverControls{false});
+  ASSERT_EQ(warm.status, Status::Converged) << warm.message;
+  ASSERT_EQ(cold.status, Status::Converged) << cold.message;
+  EXPECT_NEAR(warm.stats.geometry_change, cold.stats.geometry_change, 1e-6 * cold.stats.geometry_change);
+  const auto* details = dynamic_cast<const IpoptDetails*>(warm.details.empty() ? nullptr : warm.details.front().get());
+  ASSERT_NE(details, nullptr);
+  std::printf("warm start: %d Ipopt iterations\n", details->iterations);
+  EXPECT_LE(details->iterations, 30);
+  // No iterate strays far from the scene on the way.
+  double farthest = 0.0;
+  for (const TracePoint& p : warm.trace) farthest = std::max(farthest, p.geometry_change);
+  EXPECT_LT(farthest, 0.02);
 }
 
 // prestress=cap: the capped run restarts at the held optimum and is kept only

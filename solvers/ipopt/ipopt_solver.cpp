@@ -305,6 +305,23 @@ struct Eq5Runner {
   }
 };
 
+// Forces at `positions` that balance the load with the mean cable force held
+// at the cap, the row Eq. 5 holds under gravity. alternating-gn leaves the
+// level to the load (on the scorpion of the minimal blocks its forces violate
+// the held row by 5e2 in units of F0), and from such a start Ipopt first moves
+// far from the equilibrium to restore the row. `fallback` when the stress QP
+// gives no finite forces.
+Eigen::VectorXd held_forces_at(const Structure& part, const Eigen::Matrix3Xd& positions, const ForceScale& scale,
+                               const Eigen::VectorXd& fallback) {
+  Structure at = part;
+  at.positions = positions;
+  const Equilibrium eq(at);
+  StressQp qp(eq, held_at_prestress_cap(scale));
+  StressQpResult r = qp.solve(fallback);
+  if (r.sigma.size() != part.num_elements() || !r.sigma.allFinite()) return fallback;
+  return std::move(r.sigma);
+}
+
 // The closer of two runs to the scene among those that converged and verify
 // (`a` unless `b` is closer by more than round-off, or when neither does).
 const Eq5Run& closer(const Eq5Run& a, const Eq5Run& b) {
@@ -392,7 +409,9 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       const double warm_until = ipopt_options.start == IpoptStart::Auto
                                     ? kWarmTimeShare * options.time_limit_s
                                     : std::numeric_limits<double>::infinity();
-      const Eq5Start from{equilibrium.positions, equilibrium.forces};
+      const Eigen::VectorXd warm_forces =
+          held_start ? held_forces_at(part, equilibrium.positions, scale, equilibrium.forces) : equilibrium.forces;
+      const Eq5Start from{equilibrium.positions, warm_forces};
       warm = runner.run(nlp, &from, warm_budget, false, warm_until);
       start_note = " (started from alternating-gn's equilibrium after " +
                    std::to_string(equilibrium.stats.iterations) + " iterations)";
