@@ -809,8 +809,8 @@ ipopt_starts() {
   local tower10="$work/tower-10.scene.json" tower40="$work/tower-40.scene.json"
   "$tg" generate tower --layers 10 --struts-per-layer 8 --cables 500 --gravity --out "$tower10" >/dev/null
   "$tg" generate tower --layers 40 --struts-per-layer 8 --cables 2000 --gravity --out "$tower40" >/dev/null
-  header "$out/ipopt-starts.md" "ipopt: where it starts, and the MUMPS ordering" \
-    "tensegrity solve SCENE --solver ipopt [--option start=scene|alternating-gn] [--option mumps_pivot_order=N] --time-limit $limit"
+  header "$out/ipopt-starts.md" "ipopt: where it starts, the MUMPS ordering and its workspace" \
+    "tensegrity solve SCENE --solver ipopt [--option start=scene|alternating-gn] [--option mumps_pivot_order=N] [--option mumps_mem_percent=N] --time-limit $limit"
   run_row() {  # run_row LABEL SCENE SOLVER OPTION...: one table row from the solution file
     local label=$1 scene=$2 solver=$3
     shift 3
@@ -844,6 +844,31 @@ EOF2
     echo "|---|---|---:|---:|---:|"
     for order in 0 2 4 5 6 7; do
       run_row "$order" "$tower40" ipopt start=alternating-gn "mumps_pivot_order=$order"
+    done
+    echo
+    echo "MUMPS's workspace (mumps_mem_percent: the percentage above MUMPS's own estimate; Ipopt's"
+    echo "default 1000, the backend's 100), ipopt start=alternating-gn; process CPU seconds and minor"
+    echo "page faults of the whole command (getrusage of the child):"
+    echo
+    echo "| scene | mumps_mem_percent | status | iterations | seconds | user CPU s | system CPU s | minor page faults | geometry change |"
+    echo "|---|---:|---|---:|---:|---:|---:|---:|---:|"
+    for scene in "$tower10" "$tower40"; do
+      for percent in 1000 100; do
+        "$py" - "$tg" "$scene" "$percent" "$limit" "$work/m.json" <<'EOF2'
+import json, os, resource, subprocess, sys
+tg, scene, percent, limit, out = sys.argv[1:]
+before = resource.getrusage(resource.RUSAGE_CHILDREN)
+subprocess.run([tg, "solve", scene, "--solver", "ipopt", "--option", "start=alternating-gn",
+                "--option", f"mumps_mem_percent={percent}", "--time-limit", limit, "--out", out],
+               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+after = resource.getrusage(resource.RUSAGE_CHILDREN)
+d = json.load(open(out)); s = d["stats"]
+layers = "10" if "tower-10" in scene else "40"
+print(f"| tower, {layers} layers x 8 struts, gravity | {percent} | {d['status']} | {s['iterations']} | "
+      f"{s['seconds']:.3g} | {after.ru_utime - before.ru_utime:.2f} | {after.ru_stime - before.ru_stime:.2f} | "
+      f"{after.ru_minflt - before.ru_minflt} | {s['geometry_change']:.6g} |")
+EOF2
+      done
     done
   } >>"$out/ipopt-starts.md"
 }
