@@ -49,16 +49,23 @@ class TraceRecorder {
   bool out_of_time() const { return seconds() > time_limit_s_; }
   void record(TracePoint p) {
     p.seconds = seconds();
+    p.iteration += count_offset_;
+    p.evaluations += count_offset_;
     trace_.push_back(p);
     if (observer_ != nullptr && *observer_) (*observer_)(trace_.back());
   }
   std::vector<TracePoint>& trace() { return trace_; }
+  // Added to the iteration and evaluation counts of every later record: a
+  // run that counts from zero continues an earlier run's trace (and its live
+  // progress) where that one ended.
+  void set_count_offset(int offset) { count_offset_ = offset; }
 
  private:
   std::chrono::steady_clock::time_point start_;
   double time_limit_s_;
   const IterationObserver* observer_;  // captured at construction: the part's observer
   std::vector<TracePoint> trace_;
+  int count_offset_ = 0;
 };
 
 }  // namespace tensegrity

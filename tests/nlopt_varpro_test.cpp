@@ -270,13 +270,19 @@ TEST(NloptVarpro, AutoFallsBackToSlsqpWhereTheMultiplierMethodStalls) {
   const SolveResult slsqp = make_solver("nlopt")->Solve(scene, options, no_shortcut);
   ASSERT_EQ(slsqp.status, Status::Converged) << slsqp.message;
   options.backend_options = {};
-  const SolveResult automatic = make_solver("nlopt")->Solve(scene, options, no_shortcut);
+  DriverControls watched{false};
+  std::vector<int> live;  // the iterations the progress callback saw, in order
+  watched.on_iteration = [&live](const TracePoint& p, int, int) { live.push_back(p.iteration); };
+  const SolveResult automatic = make_solver("nlopt")->Solve(scene, options, watched);
   ASSERT_EQ(automatic.status, Status::Converged) << automatic.message;
   EXPECT_NE(automatic.message.find("al-lbfgs, then slsqp"), std::string::npos) << automatic.message;
   EXPECT_NEAR(automatic.stats.geometry_change, slsqp.stats.geometry_change, 1e-6 * slsqp.stats.geometry_change);
-  // One trace whose iterations continue across the two runs.
+  // One trace whose iterations continue across the two runs, in the solution
+  // and in the live progress alike.
   for (std::size_t i = 1; i < automatic.trace.size(); ++i)
     EXPECT_GE(automatic.trace[i].iteration, automatic.trace[i - 1].iteration) << i;
+  ASSERT_EQ(live.size(), automatic.trace.size());
+  for (std::size_t i = 0; i < live.size(); ++i) EXPECT_EQ(live[i], automatic.trace[i].iteration) << i;
 }
 
 // Under gravity there is no committed optimum (tests/reference/README.md):

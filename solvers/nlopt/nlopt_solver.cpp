@@ -123,14 +123,10 @@ PartAnswer solve_reduced_auto(const Structure& part, const SolveOptions& options
   NloptRun second = o;
   second.reduced_algorithm = scalar_route_for(part);
   second.maxeval = remaining;
-  auto& trace = recorder.trace();
-  const std::size_t first_points = trace.size();
-  PartAnswer fallback = solve_reduced(part, options, second, initial_forces, recorder);
   // One trace: the second run's iterations continue the first's.
-  for (std::size_t i = first_points; i < trace.size(); ++i) {
-    trace[i].iteration += answer.end.iterations;
-    trace[i].evaluations += answer.end.iterations;
-  }
+  recorder.set_count_offset(answer.end.iterations);
+  PartAnswer fallback = solve_reduced(part, options, second, initial_forces, recorder);
+  recorder.set_count_offset(0);
   fallback.end.iterations += answer.end.iterations;
   fallback.end.evaluations += answer.end.evaluations;
   route += std::string(", then ") + reduced_algorithm_name(second.reduced_algorithm);
