@@ -807,6 +807,8 @@ nlopt_auto_stress() {
 ipopt_starts() {
   step "ipopt-starts.md: start=scene vs start=alternating-gn vs alternating-gn; MUMPS orderings"
   local tower10="$work/tower-10.scene.json" tower40="$work/tower-40.scene.json"
+  local scorpion="$work/scorpion-minimal.scene.json"
+  "$tg" build data/characters/minimal/scorpion.character.json --out "$scorpion" >/dev/null 2>&1
   "$tg" generate tower --layers 10 --struts-per-layer 8 --cables 500 --gravity --out "$tower10" >/dev/null
   "$tg" generate tower --layers 40 --struts-per-layer 8 --cables 2000 --gravity --out "$tower40" >/dev/null
   header "$out/ipopt-starts.md" "ipopt: where it starts, the MUMPS ordering and its workspace" \
@@ -829,8 +831,9 @@ EOF2
     echo "| scene, configuration | status | iterations | seconds | geometry change |"
     echo "|---|---|---:|---:|---:|"
     for scene in data/reference/prism-3-gravity.scene.json data/reference/prism-6-gravity.scene.json \
-                 data/reference/prism-12-gravity.scene.json "$tower10"; do
+                 data/reference/prism-12-gravity.scene.json "$scorpion" "$tower10"; do
       name=$(basename "$scene" .scene.json)
+      [ "$scene" = "$scorpion" ] && name="scorpion of the minimal blocks (503 elements, gravity)"
       [ "$scene" = "$tower10" ] && name="tower, 10 layers x 8 struts, 500 cables, gravity"
       run_row "$name: ipopt start=scene" "$scene" ipopt start=scene
       run_row "$name: ipopt start=alternating-gn" "$scene" ipopt start=alternating-gn
