@@ -25,7 +25,7 @@ using Ipopt::Number;
 // MUMPS's workspace as a percentage above its own estimate. With Ipopt's
 // default, 1000, MUMPS allocates eleven times the estimate at every
 // factorization, and on large scenes mapping and faulting in those pages
-// costs more than the factorization (docs/BACKENDS.md); when the estimate
+// takes a third of Ipopt's time and more (docs/BACKENDS.md); when the estimate
 // falls short MUMPS says so, and Ipopt doubles the percentage and factorizes
 // again.
 constexpr int kMumpsWorkspacePercent = 100;
