@@ -305,19 +305,21 @@ struct Eq5Runner {
   }
 };
 
-// Forces at `positions` that balance the load with the mean cable force held
-// at the cap, the row Eq. 5 holds under gravity. alternating-gn leaves the
-// level to the load (on the scorpion of the minimal blocks its forces violate
-// the held row by 5e2 in units of F0), and from such a start Ipopt first moves
-// far from the equilibrium to restore the row. `fallback` when the stress QP
-// gives no finite forces.
-Eigen::VectorXd held_forces_at(const Structure& part, const Eigen::Matrix3Xd& positions, const ForceScale& scale,
-                               const Eigen::VectorXd& fallback) {
+// Start forces at `positions` that satisfy Eq. 5's own prestress row: the
+// stress QP, warm-started from `warm` (cold when empty), with the mean cable
+// force held at the cap under gravity. Both the driver's stress QP and
+// alternating-gn leave that level to the load (on the 20-layer gravity tower
+// with 1 % noise the row violated by 1.6e3 in units of F0, on the scorpion
+// of the minimal blocks by 5e2), and from such a start Ipopt first moves far
+// away to restore the row (9 m on that tower). `fallback` when the QP gives
+// no finite forces.
+Eigen::VectorXd eq5_start_forces(const Structure& part, const Eigen::Matrix3Xd& positions, const ForceScale& scale,
+                                 const Eigen::VectorXd& warm, const Eigen::VectorXd& fallback) {
   Structure at = part;
   at.positions = positions;
   const Equilibrium eq(at);
-  StressQp qp(eq, held_at_prestress_cap(scale));
-  StressQpResult r = qp.solve(fallback);
+  StressQp qp(eq, scale.has_prestress_cap() ? held_at_prestress_cap(scale) : scale);
+  StressQpResult r = qp.solve(warm);
   if (r.sigma.size() != part.num_elements() || !r.sigma.allFinite()) return fallback;
   return std::move(r.sigma);
 }
@@ -340,21 +342,14 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   const double max_free_weight = part.max_free_node_weight();
 
   MinimalGeometryChangeNlp nlp(part, scale);
-  // The start's forces satisfy the problem's own prestress row. Under gravity
-  // that row holds the cable sum at the cap, while the driver's stress QP
-  // leaves the level to the load (on the 20-layer gravity tower with 1 %
-  // noise: 0.16 of the cap, the row violated by 1.6e3 in units of F0), and
-  // from such a start Ipopt wanders off (9 m on that tower). So under gravity
-  // the stress QP runs again with the level held at the cap.
-  Eigen::VectorXd sigma0;
+  // The start's forces satisfy the problem's own prestress row; without
+  // gravity the driver's stress QP at this geometry already does.
   const bool held_start = scale.has_prestress_cap();
-  if (!held_start && part_problem.initial_forces.size() == part.num_elements() && part_problem.initial_forces.allFinite()) {
-    sigma0 = part_problem.initial_forces;  // the driver's stress QP at this geometry, same scale
-  } else {
-    StressQp qp(nlp.equilibrium(), held_start ? held_at_prestress_cap(scale) : scale);
-    sigma0 = qp.solve().sigma;
-    if (sigma0.size() != part.num_elements() || !sigma0.allFinite()) sigma0 = reference_forces(part, scale);
-  }
+  const Eigen::VectorXd sigma0 =
+      !held_start && part_problem.initial_forces.size() == part.num_elements() &&
+              part_problem.initial_forces.allFinite()
+          ? part_problem.initial_forces
+          : eq5_start_forces(part, part.positions, scale, Eigen::VectorXd(), reference_forces(part, scale));
 
   // Ipopt's constraint violation is the max-norm of f / F0; docs/FORMATS.md asks
   // |f_i| <= tolerance * load scale, where the load scale is the largest
@@ -410,7 +405,8 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
                                     ? kWarmTimeShare * options.time_limit_s
                                     : std::numeric_limits<double>::infinity();
       const Eigen::VectorXd warm_forces =
-          held_start ? held_forces_at(part, equilibrium.positions, scale, equilibrium.forces) : equilibrium.forces;
+          held_start ? eq5_start_forces(part, equilibrium.positions, scale, equilibrium.forces, equilibrium.forces)
+                     : equilibrium.forces;
       const Eq5Start from{equilibrium.positions, warm_forces};
       warm = runner.run(nlp, &from, warm_budget, false, warm_until);
       start_note = " (started from alternating-gn's equilibrium after " +
