@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <utility>
 #include <vector>
 
-#include "kernels/pattern_ldlt.hpp"
+#include <Eigen/OrderingMethods>
+
+#include "kernels/node_block_ldlt.hpp"
 
 namespace tensegrity {
 namespace {
@@ -58,21 +61,30 @@ constexpr double kStationaryKktError = 1e-5;
 constexpr double kStationaryKktShare = 0.1;
 constexpr double kStationaryBarrierFactor = 2.0;
 constexpr int kProjectionSteps = 6;
-// Iterative refinement of each solve against the matrix without delta_c.
+// Iterative refinement of each solve against the matrix without delta_c: at
+// most this many steps, until the residual is below the tolerance relative to
+// |b|, or until a step no longer halves it (it has reached its rounding floor,
+// where further steps only add rounding).
 constexpr int kRefinementSteps = 6;
 constexpr double kRefinementTolerance = 1e-14;
+constexpr double kRefinementProgress = 0.5;
 
-// An elimination order for the KKT matrix from its structure, with as little
-// fill as AMD's on the whole matrix but found on the much smaller node graph
-// (0.1 ms on the 80/500 tower): the forces (and the cap's slack) first, each
-// coupling only the nodes it joins; then per free node its three positions
-// and its three equilibrium multipliers, the nodes in AMD's order on the node
-// graph; the cable-sum row last (once the forces are eliminated it couples
-// every node).
+// The KKT matrix's groups for NodeBlockLdlt, in an elimination order with as
+// little fill as AMD's on the whole matrix but found on the much smaller node
+// graph (0.1 ms on the 80/500 tower): the forces (and the cap's slack) first,
+// each coupling only the nodes it joins; then per free node its three
+// positions and its three equilibrium multipliers as one block, the nodes in
+// AMD's order on the node graph; the cable-sum row last (once the forces are
+// eliminated it couples every node).
 // Variables: nq positions (x, y, z per free node), then the forces and the
 // slack, up to n; then the multipliers, the first nq per free node in the
 // positions' node order. `jacobian`: the constraint Jacobian's pattern.
-Eigen::VectorXi structured_kkt_order(const Eigen::SparseMatrix<double>& jacobian, int n, int nq, int size) {
+struct KktGroups {
+  std::vector<int> scalars, tail;
+  std::vector<NodeBlockLdlt::Block> blocks;
+};
+
+KktGroups structured_kkt_groups(const Eigen::SparseMatrix<double>& jacobian, int n, int nq, int size) {
   const int nodes = nq / 3;
   // Node graph: nodes a and b are adjacent when block (a, b) of df/dq is
   // present, i.e. when an element joins them; one entry per 3x3 block.
@@ -87,16 +99,14 @@ Eigen::VectorXi structured_kkt_order(const Eigen::SparseMatrix<double>& jacobian
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> node_order;
   Eigen::AMDOrdering<int>()(graph, node_order);
 
-  Eigen::VectorXi order(size);
-  int k = 0;
-  for (int v = nq; v < n; ++v) order[k++] = v;
+  KktGroups groups;
+  for (int v = nq; v < n; ++v) groups.scalars.push_back(v);
   for (int i = 0; i < nodes; ++i) {
     const int a = node_order.indices()[i];
-    for (int d = 0; d < 3; ++d) order[k++] = 3 * a + d;
-    for (int d = 0; d < 3; ++d) order[k++] = n + 3 * a + d;
+    groups.blocks.push_back({3 * a, 3 * a + 1, 3 * a + 2, n + 3 * a, n + 3 * a + 1, n + 3 * a + 2});
   }
-  for (int v = n + nq; v < size; ++v) order[k++] = v;
-  return order;
+  for (int v = n + nq; v < size; ++v) groups.tail.push_back(v);
+  return groups;
 }
 
 // The KKT matrix [W, J^T; J, -delta_c I] (lower triangle), its pattern and
@@ -123,7 +133,8 @@ class KktSystem {
     hessian_slot_.assign(slot.begin(), slot.begin() + nh);
     jacobian_slot_.assign(slot.begin() + nh, slot.begin() + nh + nj);
     diagonal_slot_.assign(slot.begin() + nh + nj, slot.end());
-    ldlt_.analyze(matrix_, structured_kkt_order(jacobian_pattern, n_, nq_, n_ + mc_));
+    const KktGroups groups = structured_kkt_groups(jacobian_pattern, n_, nq_, n_ + mc_);
+    ldlt_.analyze(matrix_, groups.scalars, groups.blocks, groups.tail);
   }
 
   // Writes and factorizes the matrix; true when it factorized with inertia
@@ -139,27 +150,24 @@ class KktSystem {
     for (int i = 0; i < n_; ++i) values[diagonal_slot_[i]] += delta_w;
     for (int e = 0; e < n_ - nq_; ++e) values[diagonal_slot_[nq_ + e]] += force_diagonal[e];
     for (int i = 0; i < mc_; ++i) values[diagonal_slot_[n_ + i]] -= kDualRegularisation;
-    if (!ldlt_.factorize_values(values)) return false;
-    const Eigen::VectorXd& D = ldlt_.vectorD();
-    if (!D.allFinite()) return false;
-    int positive = 0, negative = 0;
-    for (int i = 0; i < D.size(); ++i) {
-      if (D[i] > 0.0) ++positive;
-      else if (D[i] < 0.0) ++negative;
-    }
-    return positive == n_ && negative == mc_;
+    if (!ldlt_.factorize(values)) return false;
+    return ldlt_.positive_pivots() == n_ && ldlt_.negative_pivots() == mc_;
   }
 
   // Solves [W, J^T; J, 0] x = b with the factorization of the delta_c matrix
   // and iterative refinement.
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
-    x = ldlt_.solve(b);
+    ldlt_.solve(b, x);
     const double scale = std::max(1.0, b.cwiseAbs().maxCoeff());
+    double last_norm = std::numeric_limits<double>::infinity();
     for (int step = 0; step < kRefinementSteps; ++step) {
       residual_ = b - matrix_.selfadjointView<Eigen::Lower>() * x;
       residual_.tail(mc_) -= kDualRegularisation * x.tail(mc_);
-      if (residual_.cwiseAbs().maxCoeff() <= kRefinementTolerance * scale) break;
-      x += ldlt_.solve(residual_);
+      const double norm = residual_.cwiseAbs().maxCoeff();
+      if (norm <= kRefinementTolerance * scale || norm > kRefinementProgress * last_norm) break;
+      last_norm = norm;
+      ldlt_.solve(residual_, correction_);
+      x += correction_;
     }
   }
 
@@ -167,8 +175,8 @@ class KktSystem {
   int n_, mc_, nq_;
   Eigen::SparseMatrix<double> matrix_;
   std::vector<int> hessian_slot_, jacobian_slot_, diagonal_slot_;
-  PatternLdlt ldlt_;  // the symbolic work of each factorization done once
-  Eigen::VectorXd residual_;
+  NodeBlockLdlt ldlt_;  // the symbolic work done once
+  Eigen::VectorXd residual_, correction_;
 };
 
 // Values of the merit function's pieces at one point.
