@@ -153,11 +153,24 @@ void NodeBlockLdlt::analyze(const Eigen::SparseMatrix<double>& lower, const std:
     if (!list.empty()) children[list.front()].push_back(j);
   }
 
-  // store_'s sections.
+  // Each scalar's column as whole blocks (a segment of kB entries per block
+  // it touches, zeros where it has none), then its tail entries: contiguous
+  // updates in place of one indirection per entry.
   scalar_start_.assign(ns + 1, 0);
+  segment_start_.assign(ns + 1, 0);
   scalar_target_.clear();
+  segment_block_.clear();
   for (int s = 0; s < ns; ++s) {
-    scalar_target_.insert(scalar_target_.end(), targets[s].begin(), targets[s].end());
+    for (int i : targets[s]) {
+      if (i >= tail_begin) continue;
+      const int block = block_of(i);
+      if (segment_block_.size() > static_cast<std::size_t>(segment_start_[s]) && segment_block_.back() == block) continue;
+      segment_block_.push_back(block);
+      for (int o = 0; o < kB; ++o) scalar_target_.push_back(block_begin + kB * block + o);
+    }
+    segment_start_[s + 1] = static_cast<int>(segment_block_.size());
+    for (int i : targets[s])
+      if (i >= tail_begin) scalar_target_.push_back(i);
     scalar_start_[s + 1] = static_cast<int>(scalar_target_.size());
   }
   scalar_entries_ = ns;
@@ -175,12 +188,14 @@ void NodeBlockLdlt::analyze(const Eigen::SparseMatrix<double>& lower, const std:
       if (row < col) std::swap(row, col);
       value_slot_.push_back(row < ns ? row : slot(row, col));
     }
-  pair_start_.assign(ns + 1, 0);
-  pair_slot_.clear();
+  // Per scalar and pair of its segments (i <= j): where block (j, i) starts.
+  segment_pair_start_.assign(ns + 1, 0);
+  segment_pair_slot_.clear();
   for (int s = 0; s < ns; ++s) {
-    for (int b = scalar_start_[s]; b < scalar_start_[s + 1]; ++b)
-      for (int a = scalar_start_[s]; a <= b; ++a) pair_slot_.push_back(slot(scalar_target_[b], scalar_target_[a]));
-    pair_start_[s + 1] = static_cast<int>(pair_slot_.size());
+    for (int j = segment_start_[s]; j < segment_start_[s + 1]; ++j)
+      for (int i = segment_start_[s]; i <= j; ++i)
+        segment_pair_slot_.push_back(slot(block_begin + kB * segment_block_[j], block_begin + kB * segment_block_[i]));
+    segment_pair_start_[s + 1] = static_cast<int>(segment_pair_slot_.size());
   }
   int longest = 0;
   for (int j = 0; j < nb; ++j) longest = std::max(longest, below_start_[j + 1] - below_start_[j]);
@@ -218,18 +233,38 @@ bool NodeBlockLdlt::factorize(const double* values) {
   double* store = store_.data();
   int positive = 0, negative = 0;
 
-  // The scalars: one rank-one update each, then their column becomes L's.
+  // The scalars: one rank-one update each, entry (r, c) less c_r / d * c_c,
+  // then their column becomes L's.
+  const int tail_begin = ns + kB * nb;
   for (int s = 0; s < ns; ++s) {
     const double d = store[s];
     if (!std::isfinite(d) || d == 0.0) return false;
     (d > 0.0 ? positive : negative) += 1;
-    double* column = store + scalar_entries_;
-    const int* pair = pair_slot_.data() + pair_start_[s];
-    for (int b = scalar_start_[s]; b < scalar_start_[s + 1]; ++b) {
-      const double scaled = column[b] / d;
-      for (int a = scalar_start_[s]; a <= b; ++a) store[*pair++] -= scaled * column[a];
+    double* column = store + scalar_entries_ + scalar_start_[s];
+    const int segments = segment_start_[s + 1] - segment_start_[s];
+    const int* pair = segment_pair_slot_.data() + segment_pair_start_[s];
+    for (int j = 0; j < segments; ++j) {
+      double scaled[kB];
+      for (int r = 0; r < kB; ++r) scaled[r] = column[kB * j + r] / d;
+      for (int i = 0; i <= j; ++i) {
+        double* block = store + *pair++;
+        const double* c_i = column + kB * i;
+        for (int c = 0; c < kB; ++c)
+          for (int r = 0; r < kB; ++r) block[c * kB + r] -= scaled[r] * c_i[c];
+      }
     }
-    for (int k = scalar_start_[s]; k < scalar_start_[s + 1]; ++k) column[k] /= d;
+    const int entries = scalar_start_[s + 1] - scalar_start_[s];
+    for (int t = kB * segments; t < entries; ++t) {
+      const int row = scalar_target_[scalar_start_[s] + t] - tail_begin;
+      const double scaled = column[t] / d;
+      for (int i = 0; i < segments; ++i) {
+        double* border_i = store + border_ + segment_block_[segment_start_[s] + i] * nt * kB;
+        for (int c = 0; c < kB; ++c) border_i[c * nt + row] -= scaled * column[kB * i + c];
+      }
+      for (int u = kB * segments; u <= t; ++u)
+        store[tail_ + (scalar_target_[scalar_start_[s] + u] - tail_begin) * nt + row] -= scaled * column[u];
+    }
+    for (int k = 0; k < entries; ++k) column[k] /= d;
   }
 
   // The blocks, right-looking: factor the diagonal block, turn the blocks
@@ -299,9 +334,16 @@ void NodeBlockLdlt::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   const Eigen::Map<Eigen::VectorXd> w_tail(w + tail_begin, nt);
 
   // L y = b.
-  for (int s = 0; s < ns; ++s)
-    for (int k = scalar_start_[s]; k < scalar_start_[s + 1]; ++k)
-      w[scalar_target_[k]] -= store[scalar_entries_ + k] * w[s];
+  for (int s = 0; s < ns; ++s) {
+    const double w_s = w[s];
+    const double* l = store + scalar_entries_ + scalar_start_[s];
+    int k = 0;
+    for (int g = segment_start_[s]; g < segment_start_[s + 1]; ++g, k += kB) {
+      double* w_block = w + ns + kB * segment_block_[g];
+      for (int r = 0; r < kB; ++r) w_block[r] -= l[k + r] * w_s;
+    }
+    for (; k < scalar_start_[s + 1] - scalar_start_[s]; ++k) w[scalar_target_[scalar_start_[s] + k]] -= l[k] * w_s;
+  }
   for (int j = 0; j < nb; ++j) {
     double* y = w + ns + kB * j;
     forward_unit(store + diagonal_blocks_ + kBlockEntries * j, kB, y);
@@ -334,7 +376,13 @@ void NodeBlockLdlt::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   }
   for (int s = 0; s < ns; ++s) {
     double value = w[s];
-    for (int k = scalar_start_[s]; k < scalar_start_[s + 1]; ++k) value -= store[scalar_entries_ + k] * w[scalar_target_[k]];
+    const double* l = store + scalar_entries_ + scalar_start_[s];
+    int k = 0;
+    for (int g = segment_start_[s]; g < segment_start_[s + 1]; ++g, k += kB) {
+      const double* w_block = w + ns + kB * segment_block_[g];
+      for (int r = 0; r < kB; ++r) value -= l[k + r] * w_block[r];
+    }
+    for (; k < scalar_start_[s + 1] - scalar_start_[s]; ++k) value -= l[k] * w[scalar_target_[scalar_start_[s] + k]];
     w[s] = value;
   }
   x.resize(size_);

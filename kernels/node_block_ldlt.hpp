@@ -58,10 +58,11 @@ class NodeBlockLdlt {
 
   int size_ = 0, num_scalars_ = 0, num_blocks_ = 0, tail_size_ = 0;
   std::vector<int> original_;  // internal index -> variable
-  // Per scalar s: the internal indices its column reaches (ascending) and
-  // where their values are; then per pair (a <= b) of them, where the
-  // rank-one update lands.
-  std::vector<int> scalar_start_, scalar_target_, pair_start_, pair_slot_;
+  // Per scalar s: the internal indices its column reaches (ascending: whole
+  // blocks, then tail entries) and where their values are; the blocks; per
+  // pair of them (i <= j), where block (j, i) of the matrix starts.
+  std::vector<int> scalar_start_, scalar_target_, segment_start_, segment_block_;
+  std::vector<int> segment_pair_start_, segment_pair_slot_;
   // Per block column j: the blocks below the diagonal (ascending).
   std::vector<int> below_start_, below_;
   // Sections of store_.
