@@ -37,13 +37,21 @@ bool factor_dense(double* a, int n, double* scaled, int& positive, int& negative
 
 // Unit lower triangular solves with the strict lower triangle of `l` (n x n,
 // column-major): y <- L^{-1} y and y <- L^{-T} y.
-void forward_unit(const double* l, int n, double* y) {
-  for (int c = 0; c < n; ++c)
-    for (int r = c + 1; r < n; ++r) y[r] -= l[c * n + r] * y[c];
+// Each entry is accumulated in a register (its terms in ascending order),
+// not written back after every term.
+inline void forward_unit(const double* l, int n, double* y) {
+  for (int r = 1; r < n; ++r) {
+    double value = y[r];
+    for (int c = 0; c < r; ++c) value -= l[c * n + r] * y[c];
+    y[r] = value;
+  }
 }
-void backward_unit(const double* l, int n, double* y) {
-  for (int c = n - 1; c >= 0; --c)
-    for (int r = c + 1; r < n; ++r) y[c] -= l[c * n + r] * y[r];
+inline void backward_unit(const double* l, int n, double* y) {
+  for (int c = n - 1; c >= 0; --c) {
+    double value = y[c];
+    for (int r = c + 1; r < n; ++r) value -= l[c * n + r] * y[r];
+    y[c] = value;
+  }
 }
 
 // W <- W L^{-T} for the rows of W (rows x kB, column-major) and L the unit
