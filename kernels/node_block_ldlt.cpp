@@ -64,9 +64,9 @@ void solve_right_transposed(const double* l, double* w, int rows) {
     }
 }
 
-// C <- C - L U^T for 6 x 6 column-major blocks, as column updates on
-// contiguous memory (which the compiler vectorizes, where Eigen's small
-// product with a transposed operand does not).
+// C <- C - L U^T for 6 x 6 column-major blocks, as updates of contiguous
+// columns, which the compiler vectorizes; each entry takes its terms in
+// ascending order.
 void subtract_product_transposed(double* __restrict c, const double* __restrict l, const double* __restrict u) {
   for (int col = 0; col < kB; ++col)
     for (int m = 0; m < kB; ++m) {
