@@ -27,6 +27,12 @@ constexpr double kSteadyProximalWeight = 1e-8;
 // from 4,640 elements the polish is kept with neither weight, after tens of
 // seconds each.
 constexpr int kSteadyRetryElements = 4000;
+// A converged polish whose objective exceeds the start's by more than this
+// share ended at a local optimum farther from the scene (farther_than_start).
+constexpr double kFartherObjective = 1e-6;
+// ... and by more than this (dimensionless |q - q0|^2 / L^2: a change of 1e-6
+// mean element lengths), for a start at the scene itself.
+constexpr double kFartherObjectiveFloor = 1e-12;
 
 std::string polish_name(Status s) {
   switch (s) {
@@ -58,12 +64,27 @@ TracePoint trace_point(const Verification& v, int iteration, double objective) {
   return p;
 }
 
+// Whether alternating-gn's equilibrium satisfies the cable-sum row of the
+// Eq. 5 the user asked for: without a load its forces scale onto the
+// normalisation; under gravity its level is the load's, within the cap or
+// not, and a held row (prestress=equal) it meets only by chance. Only then
+// is an optimum farther from the scene a worse answer than the start, also
+// the held polish that stands in for the capped one.
+bool start_is_a_point_of_eq5(const ForceScale& scale, bool prestress_cap, const Eigen::VectorXd& start_forces) {
+  if (!scale.has_prestress_cap()) return true;
+  return prestress_cap && !exceeds_prestress_cap(scale, start_forces);
+}
+
 // One Newton polish from alternating-gn's equilibrium, with its answer
 // verified when the Newton test passed.
 struct PolishRun {
   InteriorNewtonOutcome outcome;
   bool cap_slack = false;          // the cap was a bound (with its slack)
   bool verified_rejected = false;  // the Newton test passed, model/verify did not
+  // The Newton test passed at a local optimum no closer to the scene than
+  // alternating-gn's equilibrium (a long polish can wander to another one),
+  // where that equilibrium is itself a point of this Eq. 5.
+  bool farther_than_start = false;
   Eigen::Matrix3Xd positions;
   Eigen::VectorXd forces;
   Verification check;
@@ -71,7 +92,9 @@ struct PolishRun {
   // The stationary stop's projected iterate verified and is closer to the
   // scene than alternating-gn's equilibrium (interior_newton.hpp).
   bool projected = false;
-  bool kept() const { return (outcome.status == Status::Converged || projected) && !verified_rejected; }
+  bool kept() const {
+    return (outcome.status == Status::Converged || projected) && !verified_rejected && !farther_than_start;
+  }
 };
 
 // The polish of Eq. 5 with the cable-sum row `row`; every accepted step is
@@ -119,13 +142,21 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   positions_and_forces(run.outcome.y);
   run.check = verify(part, run.positions, run.forces, options.tolerance);
   run.objective = problem.objective(run.outcome.y);
+  // Never farther than the start: a point that is not closer to the scene
+  // than alternating-gn's equilibrium is not an answer.
+  const double start_objective = problem.objective(problem.to_scaled(z0));
+  const bool closer = run.objective < start_objective;
   if (stationary) {
-    // Never farther than the start: a stationary point that is not closer
-    // to the scene than alternating-gn's equilibrium is not an answer.
-    run.projected = run.check.ok && run.objective < problem.objective(problem.to_scaled(z0));
+    run.projected = run.check.ok && closer;
     return run;
   }
   run.verified_rejected = !run.check.ok;
+  // Where alternating-gn already ends at the optimum the two agree only to
+  // the polish's tolerance, so only an optimum farther by more is a worse one.
+  const bool clearly_farther =
+      run.objective > (1.0 + kFartherObjective) * start_objective + kFartherObjectiveFloor;
+  run.farther_than_start =
+      run.check.ok && clearly_farther && start_is_a_point_of_eq5(scale, newton.prestress_cap, start.forces);
   return run;
 }
 
@@ -267,17 +298,19 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
       run = std::move(retry);
     }
   }
-  details->polish = run.verified_rejected ? "rejected_by_verification"
-                    : run.projected        ? "objective_stationary"
-                                           : polish_name(run.outcome.status);
+  details->polish = run.verified_rejected    ? "rejected_by_verification"
+                    : run.farther_than_start ? "farther_than_start"
+                    : run.projected          ? "objective_stationary"
+                                             : polish_name(run.outcome.status);
 
   // 3. Keep the Newton answer only when it is a verified KKT point or the
   // stationary stop's verified projection, closer than the start.
   if (!run.kept()) {
     if (static_cast<int>(recorder.trace().size()) > start_records)
       recorder.record(trace_point(start_check, static_cast<int>(recorder.trace().size()), 0.0));
-    return finish_with_start(run.verified_rejected
-                                 ? "the Newton polish failed verification and was not kept"
+    return finish_with_start(
+        run.verified_rejected    ? "the Newton polish failed verification and was not kept"
+        : run.farther_than_start ? "the Newton polish ended at a local optimum farther from the scene and was not kept"
                                  : "the Newton polish stopped (" + run.outcome.message + ") and was not kept");
   }
   if (run.cap_slack)

@@ -13,17 +13,18 @@
 //      a bound with its own slack; when that polish came close, KKT error
 //      below 1e-6, but was not kept, a second one holds it there) or held
 //      there (prestress=equal).
-//   3. The Newton answer is kept when its KKT test passed and model/verify
-//      accepts it, or when the stationary stop of interior_newton.hpp ended
-//      it (the objective stopped changing while the KKT error crawled) and
-//      its last iterate, projected onto the constraints, verifies and is
-//      closer to the scene than the start (`polish: objective_stationary`,
-//      an approximate local optimum); otherwise the answer is
-//      alternating-gn's verified equilibrium, and the details say why the
-//      polish was not kept.
+//   3. The Newton answer is kept when it is closer to the scene than the
+//      start and either its KKT test passed and model/verify accepts it, or
+//      the stationary stop of interior_newton.hpp ended it (the objective
+//      stopped changing while the KKT error crawled) and its last iterate,
+//      projected onto the constraints, verifies (`polish:
+//      objective_stationary`, an approximate local optimum); otherwise the
+//      answer is alternating-gn's verified equilibrium, and the details say
+//      why the polish was not kept.
 //
 // Options (`--option key=value`): newton_iterations (1 .. 100000, default
-// 200), initial_barrier (mu at the start, (0, 1), default 1e-6),
+// 1000: far from the optimum, on towers without gravity, a polish takes
+// hundreds), initial_barrier (mu at the start, (0, 1), default 1e-6),
 // optimality_tolerance (dual infeasibility and complementarity, (0, 1),
 // default 1e-10), proximal_weight (rho on the forces, (0, 1), default 1e-10;
 // when that polish is not kept on a part below 4000 elements it is retried
@@ -42,7 +43,7 @@
 namespace tensegrity {
 
 struct Eq5NewtonOptions {
-  int newton_iterations = 200;
+  int newton_iterations = 1000;
   double initial_barrier = 1e-6;
   double optimality_tolerance = 1e-10;
   double proximal_weight = 1e-10;
@@ -62,7 +63,8 @@ struct Eq5NewtonDetails : SolverDetails {
   // projected iterate of the stationary stop is; "not_run": alternating-gn
   // did not converge; otherwise the Newton stop that was not kept
   // ("max_iterations", "stalled", "numerical_error", "time_limit",
-  // "rejected_by_verification").
+  // "rejected_by_verification", "farther_than_start": a local optimum no
+  // closer to the scene than alternating-gn's equilibrium).
   std::string polish = "not_run";
   int newton_iterations = 0;
   int factorizations = 0;

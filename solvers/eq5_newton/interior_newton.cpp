@@ -50,6 +50,11 @@ constexpr double kShiftGrowth = 8.0;
 constexpr double kShiftReduction = 1.0 / 3.0;
 constexpr double kSmallestShift = 1e-20;
 constexpr double kLargestShift = 1e20;
+// After this many consecutive shifted steps a third of the previous shift is
+// tried first, while it stays above kRetryUnshiftedBelow; below it the
+// unshifted matrix is tried first again.
+constexpr int kIndefiniteStretch = 2;
+constexpr double kRetryUnshiftedBelow = 1e-8;
 // Stationary stop (interior_newton.hpp): the window of iterations, the
 // largest relative objective change over it, the largest KKT residual, the
 // least share of the KKT error the window must have kept (so that a run
@@ -259,7 +264,9 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   problem.gradient(y, g);
   const Eigen::SparseMatrix<double>* J = &problem.jacobian(y);
   KktSystem kkt(problem.hessian(y, lambda), *J, nq);
-  double last_shift = 0.0;
+  double last_shift = 0.0;      // the last shift an inertia correction found
+  double previous_shift = 0.0;  // the shift of the previous iteration's step
+  int shifted_steps = 0;        // consecutive steps taken with a shift
   const double theta_max = kLargestInfeasibility * std::max(1.0, here.infeasibility);
   const double theta_min = kSmallInfeasibility * std::max(1.0, here.infeasibility);
   std::vector<std::pair<double, double>> filter;  // (theta, phi_mu) pairs a trial must not be dominated by
@@ -333,11 +340,18 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     // Newton step with inertia correction.
     const Eigen::SparseMatrix<double>& H = problem.hessian(y, lambda);
     sigma_diag = v.cwiseQuotient(here.d).array() + settings.proximal_weight;
-    double shift = 0.0;
+    // In an indefinite stretch (the last steps all needed a shift) first try
+    // a third of the previous shift rather than none: there the unshifted
+    // matrix fails again and again, and each failure costs a factorization.
+    const bool indefinite_stretch = shifted_steps >= kIndefiniteStretch && previous_shift > kRetryUnshiftedBelow;
+    double shift = indefinite_stretch ? kShiftReduction * previous_shift : 0.0;
     ++out.factorizations;
     bool ok = kkt.factorize(H, *J, sigma_diag, shift);
     if (!ok) {
-      shift = last_shift == 0.0 ? kFirstShift : std::max(kSmallestShift, kShiftReduction * last_shift);
+      if (shift > 0.0)
+        shift *= kShiftGrowth;
+      else
+        shift = last_shift == 0.0 ? kFirstShift : std::max(kSmallestShift, kShiftReduction * last_shift);
       while (true) {
         ++out.factorizations;
         ++out.inertia_corrections;
@@ -351,6 +365,8 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       }
       last_shift = shift;
     }
+    previous_shift = shift;
+    shifted_steps = shift > 0.0 ? shifted_steps + 1 : 0;
     // Mehrotra's predictor: the affine step (mu = 0) sets mu from the
     // complementarity it would reach, and its second-order term corrects.
     corrector.setZero(m);
