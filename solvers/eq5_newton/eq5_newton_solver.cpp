@@ -89,9 +89,12 @@ struct PolishRun {
   Eigen::VectorXd forces;
   Verification check;
   double objective = 0.0;
-  // The stationary stop's projected iterate verified and is closer to the
-  // scene than alternating-gn's equilibrium (interior_newton.hpp).
+  // The projected iterate of the stationary stop, or of a stalled line
+  // search, verified and is closer to the scene than alternating-gn's
+  // equilibrium (interior_newton.hpp).
   bool projected = false;
+  // Projected after a stall: a closer equilibrium, not a KKT point.
+  bool stall_projected() const { return projected && outcome.stall_projected; }
   bool kept() const {
     return (outcome.status == Status::Converged || projected) && !verified_rejected && !farther_than_start;
   }
@@ -137,7 +140,7 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
         const Verification v = verify(part, run.positions, run.forces, options.tolerance);
         recorder.record(trace_point(v, first_record + iteration, problem.objective(y)));
       });
-  const bool stationary = run.outcome.stationary_projected;
+  const bool stationary = run.outcome.stationary_projected || run.outcome.stall_projected;
   if (run.outcome.status != Status::Converged && !stationary) return run;
   positions_and_forces(run.outcome.y);
   run.check = verify(part, run.positions, run.forces, options.tolerance);
@@ -174,6 +177,13 @@ void add_counts(const InteriorNewtonOutcome& outcome, Eq5NewtonDetails& details)
   details.dual_infeasibility = outcome.dual_infeasibility;
   details.constraint_violation = outcome.constraint_violation;
   details.complementarity = outcome.complementarity;
+}
+
+// The KKT residuals of an earlier polish whose answer stays (the counts keep summing).
+void keep_residuals(const Eq5NewtonDetails& earlier, Eq5NewtonDetails& details) {
+  details.dual_infeasibility = earlier.dual_infeasibility;
+  details.constraint_violation = earlier.constraint_violation;
+  details.complementarity = earlier.complementarity;
 }
 
 }  // namespace
@@ -264,10 +274,17 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
                            settings.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal, start, recorder);
     add_counts(run.outcome, *details);
     details->prestress_held = false;
-    if (!run.kept() && run.cap_slack && came_close(run.outcome)) {
-      run = polish(part, options, settings, scale, PrestressRow::Equal, start, recorder);
-      add_counts(run.outcome, *details);
-      details->prestress_held = true;
+    if ((!run.kept() || run.stall_projected()) && run.cap_slack && came_close(run.outcome)) {
+      const Eq5NewtonDetails before = *details;
+      PolishRun held = polish(part, options, settings, scale, PrestressRow::Equal, start, recorder);
+      add_counts(held.outcome, *details);
+      // A stalled capped polish's projected point stays unless the held one does better.
+      if (!run.kept() || (held.kept() && held.check.geometry_change < run.check.geometry_change)) {
+        run = std::move(held);
+        details->prestress_held = true;
+      } else {
+        keep_residuals(before, *details);
+      }
     }
     return run;
   };
@@ -280,7 +297,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // A held polish that ended stationary is only a fallback's answer (the
   // capped optimum can lie much closer): the retry runs then too, and the
   // closer of the two answers is kept.
-  const bool stationary_fallback = run.projected && details->prestress_held;
+  const bool stationary_fallback = run.projected && (details->prestress_held || run.stall_projected());
   if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
       part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
     Eq5NewtonOptions steady = newton;
@@ -291,20 +308,20 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     if (stationary_fallback && !(retry.kept() && retry.check.geometry_change < run.check.geometry_change)) {
       // The first answer stays, with its own KKT residuals; the counts sum both.
       details->prestress_held = before.prestress_held;
-      details->dual_infeasibility = before.dual_infeasibility;
-      details->constraint_violation = before.constraint_violation;
-      details->complementarity = before.complementarity;
+      keep_residuals(before, *details);
     } else {
       run = std::move(retry);
     }
   }
   details->polish = run.verified_rejected    ? "rejected_by_verification"
                     : run.farther_than_start ? "farther_than_start"
+                    : run.stall_projected()  ? "stalled_projected"
                     : run.projected          ? "objective_stationary"
                                              : polish_name(run.outcome.status);
 
-  // 3. Keep the Newton answer only when it is a verified KKT point or the
-  // stationary stop's verified projection, closer than the start.
+  // 3. Keep the Newton answer only when it is a verified KKT point, or the
+  // verified projection after the stationary stop or a stall, closer than
+  // the start.
   if (!run.kept()) {
     if (static_cast<int>(recorder.trace().size()) > start_records)
       recorder.record(trace_point(start_check, static_cast<int>(recorder.trace().size()), 0.0));
@@ -317,7 +334,10 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
   SolveResult result;
   result.status = Status::Converged;
-  result.message = std::string(run.projected ? "approximate local optimum" : "local optimum") + " of Eq. 5" +
+  const char* answer = run.stall_projected() ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
+                       : run.projected        ? "approximate local optimum"
+                                              : "local optimum";
+  result.message = std::string(answer) + " of Eq. 5" +
                    std::string(details->prestress_held ? " held at the prestress cap" : "") +
                    ": " + run.outcome.message + " after " + std::to_string(details->newton_iterations) +
                    " Newton iterations from alternating-gn's equilibrium (" +

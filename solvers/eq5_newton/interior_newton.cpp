@@ -470,6 +470,14 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     if (!accepted) {
       out.status = Status::Stalled;
       out.message = "the filter line search found no acceptable step";
+      // The last iterate may already be much closer to the scene than the
+      // start: projected onto the constraints it can still be an answer.
+      out.stall_projected = project_onto_constraints(problem, kkt, lambda, v, settings.constraint_tolerance, y, here);
+      if (out.stall_projected) {
+        out.y = y;
+        out.constraint_violation = here.c.cwiseAbs().maxCoeff();
+        if (observer) observer(iteration + 1, y);
+      }
       return out;
     }
     if (!objective_step)
