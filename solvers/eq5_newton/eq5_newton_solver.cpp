@@ -89,12 +89,12 @@ struct PolishRun {
   Eigen::VectorXd forces;
   Verification check;
   double objective = 0.0;
-  // The projected iterate of the stationary stop, or of a stalled line
-  // search, verified and is closer to the scene than alternating-gn's
+  // The projected iterate of the stationary stop, or of a polish that
+  // stalled or spent its budget, verified and is closer to the scene than alternating-gn's
   // equilibrium (interior_newton.hpp).
   bool projected = false;
-  // Projected after a stall: a closer equilibrium, not a KKT point.
-  bool stall_projected() const { return projected && outcome.stall_projected; }
+  // Projected after a stall or at the budget: a closer equilibrium, not a KKT point.
+  bool last_iterate_projected() const { return projected && outcome.last_iterate_projected; }
   bool kept() const {
     return (outcome.status == Status::Converged || projected) && !verified_rejected && !farther_than_start;
   }
@@ -140,7 +140,7 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
         const Verification v = verify(part, run.positions, run.forces, options.tolerance);
         recorder.record(trace_point(v, first_record + iteration, problem.objective(y)));
       });
-  const bool stationary = run.outcome.stationary_projected || run.outcome.stall_projected;
+  const bool stationary = run.outcome.stationary_projected || run.outcome.last_iterate_projected;
   if (run.outcome.status != Status::Converged && !stationary) return run;
   positions_and_forces(run.outcome.y);
   run.check = verify(part, run.positions, run.forces, options.tolerance);
@@ -274,7 +274,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
                            settings.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal, start, recorder);
     add_counts(run.outcome, *details);
     details->prestress_held = false;
-    if ((!run.kept() || run.stall_projected()) && run.cap_slack && came_close(run.outcome)) {
+    if ((!run.kept() || run.last_iterate_projected()) && run.cap_slack && came_close(run.outcome)) {
       const Eq5NewtonDetails before = *details;
       PolishRun held = polish(part, options, settings, scale, PrestressRow::Equal, start, recorder);
       add_counts(held.outcome, *details);
@@ -297,7 +297,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // A held polish that ended stationary is only a fallback's answer (the
   // capped optimum can lie much closer): the retry runs then too, and the
   // closer of the two answers is kept.
-  const bool stationary_fallback = run.projected && (details->prestress_held || run.stall_projected());
+  const bool stationary_fallback = run.projected && (details->prestress_held || run.last_iterate_projected());
   if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
       part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
     Eq5NewtonOptions steady = newton;
@@ -313,11 +313,11 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
       run = std::move(retry);
     }
   }
-  details->polish = run.verified_rejected    ? "rejected_by_verification"
-                    : run.farther_than_start ? "farther_than_start"
-                    : run.stall_projected()  ? "stalled_projected"
-                    : run.projected          ? "objective_stationary"
-                                             : polish_name(run.outcome.status);
+  details->polish = run.verified_rejected          ? "rejected_by_verification"
+                    : run.farther_than_start       ? "farther_than_start"
+                    : run.last_iterate_projected() ? polish_name(run.outcome.status) + "_projected"
+                    : run.projected                ? "objective_stationary"
+                                                   : polish_name(run.outcome.status);
 
   // 3. Keep the Newton answer only when it is a verified KKT point, or the
   // verified projection after the stationary stop or a stall, closer than
@@ -334,7 +334,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
   SolveResult result;
   result.status = Status::Converged;
-  const char* answer = run.stall_projected() ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
+  const char* answer = run.last_iterate_projected() ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
                        : run.projected        ? "approximate local optimum"
                                               : "local optimum";
   result.message = std::string(answer) + " of Eq. 5" +

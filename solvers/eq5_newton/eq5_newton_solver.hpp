@@ -19,9 +19,10 @@
 //      stopped changing while the KKT error crawled) and its last iterate,
 //      projected onto the constraints, verifies (`polish:
 //      objective_stationary`, an approximate local optimum), or, when no
-//      polish does either, its line search stalled and the last iterate,
-//      projected the same way, verifies (`polish: stalled_projected`, a
-//      closer equilibrium, not a local optimum); otherwise the answer is
+//      polish does either, its line search stalled or its budget ran out
+//      and the last iterate, projected the same way, verifies (`polish:
+//      stalled_projected` or `max_iterations_projected`, a closer
+//      equilibrium, not a local optimum); otherwise the answer is
 //      alternating-gn's verified equilibrium, and the details say why the
 //      polish was not kept.
 //
@@ -63,8 +64,9 @@ struct Eq5NewtonDetails : SolverDetails {
   int start_iterations = 0;          // alternating-gn's iterations
   double start_geometry_change = 0;  // of alternating-gn's equilibrium (m)
   // "kept": the Newton answer is the result; "objective_stationary": the
-  // projected iterate of the stationary stop is; "stalled_projected": the
-  // projected iterate of a stalled polish is; "not_run": alternating-gn
+  // projected iterate of the stationary stop is; "stalled_projected",
+  // "max_iterations_projected": the projected last iterate of a polish that
+  // stalled or spent its budget is; "not_run": alternating-gn
   // did not converge; otherwise the Newton stop that was not kept
   // ("max_iterations", "stalled", "numerical_error", "time_limit",
   // "rejected_by_verification", "farther_than_start": a local optimum no

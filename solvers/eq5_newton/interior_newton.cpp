@@ -279,6 +279,18 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   out.y = y;
   out.lambda = lambda;
 
+  // The last iterate of a polish that ends without an answer (a stalled line
+  // search, the budget spent) may already be much closer to the scene than
+  // the start: projected onto the constraints it can still be one.
+  auto project_last_iterate = [&](int iteration) {
+    out.last_iterate_projected =
+        project_onto_constraints(problem, kkt, lambda, v, settings.constraint_tolerance, y, here);
+    if (!out.last_iterate_projected) return;
+    out.y = y;
+    out.constraint_violation = here.c.cwiseAbs().maxCoeff();
+    if (observer) observer(iteration + 1, y);
+  };
+
   for (int iteration = 0;; ++iteration) {
     // Optimality of the current point.
     rd = g + J->transpose() * lambda;
@@ -329,6 +341,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     if (iteration >= settings.max_iterations) {
       out.status = Status::MaxIterations;
       out.message = "Newton iteration budget spent";
+      project_last_iterate(iteration);
       return out;
     }
     if (seconds() > settings.time_limit_s) {
@@ -470,14 +483,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     if (!accepted) {
       out.status = Status::Stalled;
       out.message = "the filter line search found no acceptable step";
-      // The last iterate may already be much closer to the scene than the
-      // start: projected onto the constraints it can still be an answer.
-      out.stall_projected = project_onto_constraints(problem, kkt, lambda, v, settings.constraint_tolerance, y, here);
-      if (out.stall_projected) {
-        out.y = y;
-        out.constraint_violation = here.c.cwiseAbs().maxCoeff();
-        if (observer) observer(iteration + 1, y);
-      }
+      project_last_iterate(iteration);
       return out;
     }
     if (!objective_step)

@@ -83,10 +83,11 @@ struct InteriorNewtonOutcome {
   // The stationary stop above ended the run (status Stalled) and `y` is its
   // last iterate projected onto the constraints to constraint_tolerance.
   bool stationary_projected = false;
-  // The line search found no acceptable step (status Stalled) and `y` is the
-  // last iterate projected onto the constraints in the same way: a point
-  // that may be closer to the scene than the start, not a KKT point.
-  bool stall_projected = false;
+  // The line search found no acceptable step (status Stalled) or the budget
+  // ran out (MaxIterations), and `y` is the last iterate projected onto the
+  // constraints in the same way: a point that may be closer to the scene
+  // than the start, not a KKT point.
+  bool last_iterate_projected = false;
 };
 
 // Called after every accepted step with the iteration number and the point.
