@@ -90,8 +90,8 @@ struct PolishRun {
   Verification check;
   double objective = 0.0;
   // The projected iterate of the stationary stop, or of a polish that
-  // stalled or spent its budget, verified and is closer to the scene than alternating-gn's
-  // equilibrium (interior_newton.hpp).
+  // stalled or spent its budget, verified and is closer to the scene than
+  // alternating-gn's equilibrium (interior_newton.hpp).
   bool projected = false;
   // Projected after a stall or at the budget: a closer equilibrium, not a KKT point.
   bool last_iterate_projected() const { return projected && outcome.last_iterate_projected; }
@@ -278,7 +278,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
       const Eq5NewtonDetails before = *details;
       PolishRun held = polish(part, options, settings, scale, PrestressRow::Equal, start, recorder);
       add_counts(held.outcome, *details);
-      // A stalled capped polish's projected point stays unless the held one does better.
+      // A capped polish's projected last iterate stays unless the held one does better.
       if (!run.kept() || (held.kept() && held.check.geometry_change < run.check.geometry_change)) {
         run = std::move(held);
         details->prestress_held = true;
@@ -320,8 +320,8 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
                                                    : polish_name(run.outcome.status);
 
   // 3. Keep the Newton answer only when it is a verified KKT point, or the
-  // verified projection after the stationary stop or a stall, closer than
-  // the start.
+  // verified projection after the stationary stop, a stall or the budget,
+  // closer than the start.
   if (!run.kept()) {
     if (static_cast<int>(recorder.trace().size()) > start_records)
       recorder.record(trace_point(start_check, static_cast<int>(recorder.trace().size()), 0.0));
@@ -334,9 +334,10 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
   SolveResult result;
   result.status = Status::Converged;
-  const char* answer = run.last_iterate_projected() ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
-                       : run.projected        ? "approximate local optimum"
-                                              : "local optimum";
+  const char* answer =
+      run.last_iterate_projected() ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
+      : run.projected              ? "approximate local optimum"
+                                   : "local optimum";
   result.message = std::string(answer) + " of Eq. 5" +
                    std::string(details->prestress_held ? " held at the prestress cap" : "") +
                    ": " + run.outcome.message + " after " + std::to_string(details->newton_iterations) +
