@@ -14,6 +14,9 @@
 // for the gravity tower family tower-<L>-gravity-noise1 (58 L elements,
 // scenes/gravity_tower_family.hpp): each built on its first benchmark, outside
 // the timing, by an alternating-gn equilibrium solve plus 1 % node noise.
+// Besides every registered backend, `ipopt@eq5-newton` is Ipopt with
+// --option start=eq5-newton (docs/BACKENDS.md), so that both of Ipopt's
+// starts are timed in the same run.
 // Scenes are built once, before any timing; success is checked after the
 // timing loop by the independent model/verify at --success_tol.
 //
@@ -165,6 +168,8 @@ constexpr double kGravityTowerEquilibriumLimit = 120.0;  // s, as eq5_newton_ben
 // family's perturbed character.
 constexpr double kSideBySideNoise = 0.02;
 constexpr unsigned kSideBySideSeed = 1u;
+// A benchmarked backend with a start of its own: backend@start.
+constexpr char kStartSeparator = '@';
 
 struct BenchScene {
   std::string family;  // "compare", "side-by-side" or "scaling"
@@ -262,9 +267,20 @@ double max_rss_mb() {
   return static_cast<double>(u.ru_maxrss) / 1024.0;
 }
 
-void run(benchmark::State& state, const std::string& backend, const Structure& scene) {
+// The benchmarked backends: every registered one, and Ipopt started from
+// eq5-newton's answer (`ipopt@eq5-newton`: backend@start).
+std::vector<std::string> bench_backends() {
+  std::vector<std::string> names = solver_names();
+  names.emplace_back("ipopt@eq5-newton");
+  return names;
+}
+
+void run(benchmark::State& state, const std::string& label, const Structure& scene) {
+  const std::size_t at = label.find(kStartSeparator);
+  const std::string backend = label.substr(0, at);
   const auto solver = make_solver(backend);
   SolveOptions options;
+  if (at != std::string::npos) options.backend_options = {{"start", label.substr(at + 1)}};
   options.tolerance = config().tolerance;
   options.time_limit_s = config().time_limit_s;
   SolveResult r;
@@ -297,13 +313,13 @@ void run(benchmark::State& state, const std::string& backend, const Structure& s
   state.counters["max_rss_MB"] = max_rss_mb();
   state.SetLabel(std::string(to_string(r.status)) + (success ? "" : " (not verified)"));
   if (!config().trace_dir.empty())
-    write_trace_csv(config().trace_dir + "/" + scene.name + "__" + backend + ".csv", r.trace);
+    write_trace_csv(config().trace_dir + "/" + scene.name + "__" + label + ".csv", r.trace);
   // One progress line per benchmark (Google Benchmark calls this function
   // again for each trial iteration count and repetition).
   static std::set<std::string> reported;
-  if (!reported.insert(scene.name + "/" + backend).second) return;
+  if (!reported.insert(scene.name + "/" + label).second) return;
   std::fprintf(stderr, "run  %-28s %-15s %-15s %8.3f s  %5d it  rr %.1e  change %.4g m  heap %.1f MB\n",
-               scene.name.c_str(), backend.c_str(), std::string(to_string(r.status)).c_str(),
+               scene.name.c_str(), label.c_str(), std::string(to_string(r.status)).c_str(),
                r.stats.seconds, r.stats.iterations, v.relative_residual, v.geometry_change,
                static_cast<double>(peak_heap) / (1024.0 * 1024.0));
 }
@@ -331,7 +347,7 @@ const Structure* gravity_tower_scene(int layers) {
 
 void register_all() {
   for (int layers : config().gravity_tower_layers)
-    for (const std::string& backend : solver_names()) {
+    for (const std::string& backend : bench_backends()) {
       const std::string name = "gravity-towers/" + scenes::gravity_tower_name(layers) + "/" + backend;
       benchmark::RegisterBenchmark(name.c_str(),
                                    [backend, layers](benchmark::State& st) {
@@ -351,7 +367,7 @@ void register_all() {
     }
   static const std::vector<BenchScene> scenes = all_scenes();
   for (const BenchScene& s : scenes)
-    for (const std::string& backend : solver_names()) {
+    for (const std::string& backend : bench_backends()) {
       const std::string name = s.family + "/" + s.structure.name + "/" + backend;
       benchmark::RegisterBenchmark(name.c_str(), [backend, &s](benchmark::State& st) { run(st, backend, s.structure); })
           ->Unit(benchmark::kMillisecond)

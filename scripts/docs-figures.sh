@@ -1036,7 +1036,7 @@ gravity_towers() {
 # which stop at the limit from 20 layers on, are left out.
 gravity_towers_10k() {
   gravity_tower_figure gravity-towers-10k "The gravity tower family to 9,280 elements" 10,20,40,80,160 \
-    '^gravity-towers/[^/]+/(alternating-gn|eq5-newton|ipopt)/' "${FIGURES_10K_TIME_LIMIT:-120}" 1e-8
+    '^gravity-towers/[^/]+/(alternating-gn|eq5-newton|ipopt|ipopt@eq5-newton)/' "${FIGURES_10K_TIME_LIMIT:-120}" 1e-8
 }
 
 # --- the outputs shown in docs/OUTPUTS.md and docs/PYTHON.md ------------------------

@@ -379,6 +379,56 @@ TEST(IpoptSolver, WarmStartUnderGravityHoldsTheLevelAtTheCap) {
   EXPECT_LT(farthest, 0.02);
 }
 
+// start=eq5-newton: Ipopt from eq5-newton's local optimum, started at the
+// point itself (tiny bound push, barrier and bound multipliers of the
+// optimum's order), confirms that optimum by its own KKT test in a few
+// iterations where start=alternating-gn needs tens. On the scorpion of the
+// minimal blocks (under gravity, the cap binding) it solves the capped
+// problem directly: no held run, no restart.
+TEST(IpoptSolver, Eq5NewtonStartConfirmsItsOptimumInAFewIterations) {
+  const Structure s =
+      build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/minimal/scorpion.character.json")
+          .structure;
+  SolveOptions o = no_shortcut();
+  o.backend_options = {{"start", "eq5-newton"}};
+  const SolveResult from_optimum = IpoptSolver().Solve(s, o, DriverControls{false});
+  o.backend_options = {{"start", "scene"}};
+  const SolveResult cold = IpoptSolver().Solve(s, o, DriverControls{false});
+  ASSERT_EQ(from_optimum.status, Status::Converged) << from_optimum.message;
+  ASSERT_EQ(cold.status, Status::Converged) << cold.message;
+  EXPECT_NE(from_optimum.message.find("eq5-newton's local optimum"), std::string::npos) << from_optimum.message;
+  EXPECT_NEAR(from_optimum.stats.geometry_change, cold.stats.geometry_change, 1e-6 * cold.stats.geometry_change);
+  EXPECT_TRUE(verify(s, from_optimum.positions, from_optimum.forces, o.tolerance).ok);
+  const auto* details =
+      dynamic_cast<const IpoptDetails*>(from_optimum.details.empty() ? nullptr : from_optimum.details.front().get());
+  ASSERT_NE(details, nullptr);
+  std::printf("from eq5-newton's optimum: %d Ipopt iterations\n", details->iterations);
+  EXPECT_LE(details->iterations, 10);
+  EXPECT_FALSE(std::isfinite(details->cable_sum_multiplier));  // no held run
+  EXPECT_EQ(details->cold_start_iterations, -1);                // no run from the scene
+}
+
+// start=eq5-newton without gravity, and under gravity with prestress=equal
+// (eq5-newton then holds the level too): the same optimum as the run from
+// the scene on perturbed prisms, which have one local optimum near the scene.
+TEST(IpoptSolver, Eq5NewtonStartReachesTheColdStartsOptimum) {
+  const std::vector<std::pair<Structure, const char*>> cases = {
+      {perturbed(prism(5), 0.05, 7u), "cap"},
+      {perturbed(prism(6, 5.0, true), 0.05, 42u), "equal"},
+  };
+  for (const auto& [s, prestress] : cases) {
+    SolveOptions o = no_shortcut();
+    o.backend_options = {{"start", "eq5-newton"}, {"prestress", prestress}};
+    const SolveResult warm = IpoptSolver().Solve(s, o, DriverControls{false});
+    o.backend_options = {{"start", "scene"}, {"prestress", prestress}};
+    const SolveResult cold = IpoptSolver().Solve(s, o, DriverControls{false});
+    ASSERT_EQ(warm.status, Status::Converged) << s.name << ": " << warm.message;
+    ASSERT_EQ(cold.status, Status::Converged) << s.name << ": " << cold.message;
+    EXPECT_NEAR(warm.stats.geometry_change, cold.stats.geometry_change, 1e-6 * cold.stats.geometry_change) << s.name;
+    EXPECT_GT(cold.stats.geometry_change, 0.0);
+  }
+}
+
 // prestress=cap: the capped run restarts at the held optimum and is kept only
 // when verified and closer to the scene. On prism-6-gravity with gravity along
 // +x (the stress test's case) it moves to another local optimum, nine times

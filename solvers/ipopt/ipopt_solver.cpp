@@ -42,6 +42,11 @@ constexpr double kToleranceShare = 0.1;
 // ends: where Ipopt's own test can pass it passes at the first (Ipopt's
 // acceptable_iter counts the same way).
 constexpr int kRoundOffIterations = 5;
+// ... and whose relative residual is within this factor of the tolerance: on
+// the largest gravity towers rounding alone leaves Ipopt's iterates at 1-3
+// times the tolerance (the 160-layer tower, 9,280 elements), where the stress
+// QP at the final geometry brings the forces below it (Eq5Runner::run).
+constexpr double kRoundOffResidualFactor = 10.0;
 // Ipopt's Search_Direction_Becomes_Too_Small (ApplicationReturnStatus).
 constexpr int kSearchDirectionTooSmall = 3;
 // prestress=cap: the held optimum's multiplier of the cable-sum row above
@@ -71,15 +76,27 @@ constexpr double kWarmTimeShare = 0.5;
 // be negative), so no run from the scene can end closer.
 constexpr double kNegligibleChangeOverLength = 1e-9;
 
-// The equilibrium alternating-gn reaches from the part's geometry, or an
-// empty result when it does not converge within the same settings.
-SolveResult equilibrium_start(const Structure& part, const SolveOptions& options) {
+// start=eq5-newton from a local optimum (eq5-newton's polish kept): Ipopt's
+// defaults would push every force at its sign margin 1e-2 into the interior
+// and start the barrier at 0.1, and it spends tens of iterations coming back
+// (the scorpion of the minimal blocks: 35 iterations); from the point itself,
+// with a barrier of the optimum's order and bound multipliers mu / slack, it
+// confirms the optimum in a few (5 there). The user's own values win.
+constexpr double kOptimumStartBarrier = 1e-8;
+constexpr double kOptimumStartPush = 1e-10;
+const char* const kPolishKept[] = {"kept", "objective_stationary"};
+
+// The answer another backend (alternating-gn, eq5-newton) reaches from the
+// part's geometry, or an empty result when it does not converge within the
+// same settings. `backend_options`: that backend's own.
+SolveResult backend_start(const Structure& part, const SolveOptions& options, const char* backend,
+                          const OptionPairs& backend_options = {}) {
   SolveOptions start_options = options;
-  start_options.backend_options.clear();
+  start_options.backend_options = backend_options;
   start_options.verbose = false;
   DriverControls controls;
   controls.skip_if_in_equilibrium = false;  // the driver has checked the part already
-  SolveResult start = make_solver("alternating-gn")->Solve(part, start_options, controls);
+  SolveResult start = make_solver(backend)->Solve(part, start_options, controls);
   if (start.status != Status::Converged) return {};
   return start;
 }
@@ -167,7 +184,8 @@ IpoptOptions IpoptOptions::FromPairs(const OptionPairs& pairs) {
       if (value == "auto") o.start = IpoptStart::Auto;
       else if (value == "scene") o.start = IpoptStart::Scene;
       else if (value == "alternating-gn") o.start = IpoptStart::AlternatingGn;
-      else throw OptionError("ipopt", key, value, "not a start (valid: auto, scene, alternating-gn)");
+      else if (value == "eq5-newton") o.start = IpoptStart::Eq5Newton;
+      else throw OptionError("ipopt", key, value, "not a start (valid: auto, scene, alternating-gn, eq5-newton)");
       continue;
     }
     if (key == kPrestressKey) {
@@ -194,6 +212,24 @@ bool IpoptOptions::IsValid(std::string* why) const {
 
 namespace {
 
+// Ipopt's scaled stopping test met but not model/verify's (rounding of the
+// rows on large scenes): one stress solve at `positions`, warm-started from
+// `forces`. True, with `forces` and `check` replaced, when the polished
+// forces verify.
+bool polish_forces(const Structure& part, const ForceScale& scale, const Eigen::Matrix3Xd& positions,
+                   double tolerance, Eigen::VectorXd& forces, Verification& check) {
+  Equilibrium eq(part);
+  eq.set_positions(positions);
+  StressQp qp(eq, scale);
+  Eigen::VectorXd polished = qp.solve(forces).sigma;
+  if (polished.size() != part.num_elements() || !polished.allFinite()) return false;
+  const Verification v = verify(part, positions, polished, tolerance);
+  if (!v.ok) return false;
+  forces = std::move(polished);
+  check = v;
+  return true;
+}
+
 // One Ipopt run of Eq. 5 and its independent check.
 struct Eq5Run {
   Status status = Status::NumericalError;
@@ -219,6 +255,7 @@ struct Eq5Start {
 struct Eq5Runner {
   const Structure& part;
   const SolveOptions& options;
+  const ForceScale& scale;
   const Eigen::VectorXd& sigma0;
   double max_free_weight;
   IpoptSettings settings;  // without max_iter: each run sets its own
@@ -233,12 +270,16 @@ struct Eq5Runner {
   // TimeLimit status then, as at the time limit). `record_first`: whether
   // its iteration 0 is a new record (not when it repeats the point the trace
   // ends at).
+  // `first_options` go before every other setting, so that the user's own
+  // values of the same options win.
   Eq5Run run(MinimalGeometryChangeNlp& nlp, const Eq5Start* start, int max_iterations, bool record_first,
-             double stop_at_seconds = std::numeric_limits<double>::infinity()) {
+             double stop_at_seconds = std::numeric_limits<double>::infinity(),
+             const std::vector<IpoptOption>& first_options = {}) {
     DimensionlessEq5 problem(nlp, sigma0);
     if (start != nullptr) problem.set_start(nlp.equilibrium().free_nodes().gather(start->positions), start->forces);
     IpoptSettings run_settings = settings;
     run_settings.options.insert(run_settings.options.begin(), IpoptOption{"max_iter", max_iterations});
+    run_settings.options.insert(run_settings.options.begin(), first_options.begin(), first_options.end());
     const int iteration_offset = next_iteration() - (record_first ? 0 : 1);
     const int evaluation_offset = evaluations();
     int optimal_iterations = 0;  // consecutive, see optimal_to_round_off
@@ -276,6 +317,9 @@ struct Eq5Runner {
       r.forces = start != nullptr ? start->forces : sigma0;
     }
     r.check = verify(part, r.positions, r.forces, options.tolerance);
+    if (r.status == Status::Converged && !r.check.ok && r.check.all_finite && r.check.wrong_signs == 0 &&
+        polish_forces(part, scale, r.positions, options.tolerance, r.forces, r.check))
+      r.message += " (forces polished by the stress QP)";
     return r;
   }
 
@@ -290,7 +334,7 @@ struct Eq5Runner {
   // stopped by itself within kRoundOffIterations of them.
   bool optimal_to_round_off(const IpoptIteration& it, const TracePoint& p) const {
     return it.x != nullptr && it.dual_infeasibility <= optimality_tol && it.barrier_parameter <= optimality_tol &&
-           p.relative_residual <= options.tolerance;
+           p.relative_residual <= kRoundOffResidualFactor * options.tolerance;
   }
 
   // A record of the kept answer, when the trace ends elsewhere.
@@ -359,7 +403,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
   const double constraint_tolerance = kToleranceShare * options.tolerance * load_over_force / std::sqrt(3.0);
 
-  Eq5Runner runner{part, options, sigma0, max_free_weight, {}, recorder};
+  Eq5Runner runner{part, options, scale, sigma0, max_free_weight, {}, recorder};
   IpoptSettings& settings = runner.settings;
   settings.verbose = options.verbose;
   settings.set("linear_solver", "mumps");
@@ -390,11 +434,57 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   Eq5Run held;
   int ipopt_iterations = 0;  // of every run
   auto details = std::make_shared<IpoptDetails>();
+  // start=eq5-newton under gravity with prestress=cap: eq5-newton's answer is
+  // a point of the capped problem already, which Ipopt then solves directly.
+  bool capped_directly = false;
   if (ipopt_options.start == IpoptStart::Scene) {
     held = runner.run(nlp, nullptr, budget, true);
     ipopt_iterations = held.iterations;
+  } else if (ipopt_options.start == IpoptStart::Eq5Newton) {
+    const bool capped = ipopt_options.prestress == IpoptPrestress::Cap && scale.has_prestress_cap();
+    const SolveResult optimum =
+        backend_start(part, options, "eq5-newton", {{kPrestressKey, capped || !held_start ? "cap" : "equal"}});
+    if (optimum.positions.cols() == part.num_nodes()) {
+      for (const TracePoint& p : optimum.trace) recorder.record(p);
+      const std::string polish = optimum.details.size() == 1 && optimum.details.front()
+                                     ? optimum.details.front()->to_json().value("polish", "")
+                                     : "";
+      const bool at_optimum = std::find(std::begin(kPolishKept), std::end(kPolishKept), polish) != std::end(kPolishKept);
+      std::vector<IpoptOption> at_point;
+      if (at_optimum)
+        at_point = {{"mu_init", kOptimumStartBarrier}, {"bound_push", kOptimumStartPush},
+                    {"bound_frac", kOptimumStartPush}, {"bound_mult_init_method", std::string("mu-based")}};
+      // Away from an optimum eq5-newton's answer is alternating-gn's
+      // equilibrium, whose forces leave the level to the load (as start=auto).
+      const Eigen::VectorXd forces =
+          at_optimum || !held_start
+              ? optimum.forces
+              : eq5_start_forces(part, optimum.positions, scale, optimum.forces, optimum.forces);
+      const Eq5Start from{optimum.positions, forces};
+      capped_directly = capped;
+      MinimalGeometryChangeNlp capped_nlp(part, scale, PrestressRow::Cap);
+      held = runner.run(capped ? capped_nlp : nlp, &from, std::min(budget, kWarmIterationsAtMost), false,
+                        kWarmTimeShare * options.time_limit_s, at_point);
+      start_note = std::string(" (started from eq5-newton's ") + (at_optimum ? "local optimum" : "equilibrium") +
+                   " after " + std::to_string(optimum.stats.iterations) + " iterations)";
+      ipopt_iterations = held.iterations;
+    }
+    if (!held.ok() && !recorder.out_of_time()) {
+      // No answer from eq5-newton's point: the scene with the budget left,
+      // kept when it verifies.
+      const int left = std::max(1, budget - ipopt_iterations);
+      Eq5Run cold = runner.run(nlp, nullptr, left, true);
+      ipopt_iterations += cold.iterations;
+      details->cold_start_iterations = cold.iterations;
+      if (&closer(held, cold) == &cold) {
+        held = std::move(cold);
+        capped_directly = false;
+        start_note.clear();
+        details->cold_start_kept = true;
+      }
+    }
   } else {
-    const SolveResult equilibrium = equilibrium_start(part, options);
+    const SolveResult equilibrium = backend_start(part, options, "alternating-gn");
     const bool have_equilibrium = equilibrium.positions.cols() == part.num_nodes();
     Eq5Run warm;
     if (have_equilibrium) {
@@ -460,13 +550,13 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   result.positions = held.positions;
   result.forces = held.forces;
   Verification v = held.check;
-  if (scale.has_prestress_cap()) details->cable_sum_multiplier = held.cable_sum_multiplier;
+  if (scale.has_prestress_cap() && !capped_directly) details->cable_sum_multiplier = held.cable_sum_multiplier;
   // A held optimum whose multiplier shows the cap binding is already a KKT
   // point of the capped problem; over the stress test the restart from such
   // a point ended closer in 1 of 435 solves (docs/BACKENDS.md).
   details->prestress_cap_binds =
-      scale.has_prestress_cap() && held.ok() && held.cable_sum_multiplier > kCapBindsMultiplier;
-  if (ipopt_options.prestress == IpoptPrestress::Cap && scale.has_prestress_cap() && held.ok() &&
+      scale.has_prestress_cap() && !capped_directly && held.ok() && held.cable_sum_multiplier > kCapBindsMultiplier;
+  if (ipopt_options.prestress == IpoptPrestress::Cap && scale.has_prestress_cap() && !capped_directly && held.ok() &&
       !details->prestress_cap_binds && !recorder.out_of_time()) {
     // The capped problem restarted at the held optimum: a feasible start, so
     // Ipopt stays near it instead of wandering as it does from the scene.
@@ -487,20 +577,6 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   details->iterations = ipopt_iterations;
   result.stats.iterations = recorder.trace().empty() ? 0 : recorder.trace().back().iteration;
   result.details = {details};
-  if (result.status == Status::Converged && !v.ok && v.all_finite && v.wrong_signs == 0) {
-    // Ipopt's scaled stopping test was met but not model/verify's: one stress
-    // solve at the final geometry, warm-started from Ipopt's forces.
-    Equilibrium eq(part);
-    eq.set_positions(result.positions);
-    StressQp qp(eq, scale);
-    const Eigen::VectorXd polished = qp.solve(result.forces).sigma;
-    const Verification vp = verify(part, result.positions, polished, options.tolerance);
-    if (vp.ok) {
-      result.forces = polished;
-      v = vp;
-      result.message += " (forces polished by the stress QP)";
-    }
-  }
   if (!v.all_finite) {
     result.status = Status::NumericalError;
     result.positions = part.positions;

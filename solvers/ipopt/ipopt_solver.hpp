@@ -40,20 +40,24 @@
 
 namespace tensegrity {
 
-// Where Ipopt starts: the scene geometry with the stress QP's forces, or the
-// equilibrium that alternating-gn finds (the objective still measures the
-// change from the scene geometry, so this is a start, not a different problem).
-// `Auto` runs both: first from alternating-gn's equilibrium, then (unless the
-// first answer is the scene to round-off) from the scene with an iteration
-// budget of a few times the first run's, and keeps the closer verified answer.
-enum class IpoptStart { Auto, Scene, AlternatingGn };
+// Where Ipopt starts: the scene geometry with the stress QP's forces, the
+// equilibrium that alternating-gn finds, or eq5-newton's answer (the objective
+// still measures the change from the scene geometry, so this is a start, not a
+// different problem). `Auto` runs the first two: first from alternating-gn's
+// equilibrium, then (unless the first answer is the scene to round-off) from
+// the scene with an iteration budget of a few times the first run's, and keeps
+// the closer verified answer. `Eq5Newton` starts at eq5-newton's local
+// optimum (at the point itself, with a barrier of the optimum's order) and
+// solves the capped problem directly under gravity with prestress=cap; only
+// when that run gives no verified answer does Ipopt run from the scene.
+enum class IpoptStart { Auto, Scene, AlternatingGn, Eq5Newton };
 
 // Under gravity, Eq. 5's mean cable force: held at kappa times the weight
 // (`equal`), or first held there and then only capped by it, Ipopt restarting
 // from the held optimum and keeping the smaller verified change (`cap`).
 enum class IpoptPrestress { Equal, Cap };
 
-// `start=auto|scene|alternating-gn` (default auto), `prestress=equal|cap`
+// `start=auto|scene|alternating-gn|eq5-newton` (default auto), `prestress=equal|cap`
 // (default cap: never farther than `equal`, docs/THEORY-force-scale.md) and native Ipopt options given as `--option key=value`,
 // checked against Ipopt's own registry (name, type and range).
 struct IpoptOptions {
@@ -69,8 +73,9 @@ struct IpoptOptions {
 struct IpoptDetails : SolverDetails {
   int return_code = 0;  // Ipopt's ApplicationReturnStatus (0: Solve_Succeeded)
   int iterations = 0;   // Ipopt's own iteration count, over every run of the part
-  // start=auto: the run from the scene's iterations (-1: not run) and whether
-  // its answer was kept (converged, verified and closer than the warm run's).
+  // start=auto, start=eq5-newton: the run from the scene's iterations (-1:
+  // not run) and whether its answer was kept (converged, verified and closer
+  // than the warm run's).
   int cold_start_iterations = -1;
   bool cold_start_kept = false;
   // prestress=cap under gravity: the capped run's change was kept (it was
