@@ -62,6 +62,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "bench/gravity_tower_family.hpp"
@@ -170,6 +171,8 @@ constexpr double kSideBySideNoise = 0.02;
 constexpr unsigned kSideBySideSeed = 1u;
 // A benchmarked backend with a start of its own: backend@start.
 constexpr char kStartSeparator = '@';
+constexpr std::string_view kIpoptFromEq5Newton = "ipopt@eq5-newton";
+static_assert(kIpoptFromEq5Newton[5] == kStartSeparator);
 
 struct BenchScene {
   std::string family;  // "compare", "side-by-side" or "scaling"
@@ -271,7 +274,7 @@ double max_rss_mb() {
 // eq5-newton's answer (`ipopt@eq5-newton`: backend@start).
 std::vector<std::string> bench_backends() {
   std::vector<std::string> names = solver_names();
-  names.emplace_back("ipopt@eq5-newton");
+  names.emplace_back(kIpoptFromEq5Newton);
   return names;
 }
 

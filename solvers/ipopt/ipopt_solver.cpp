@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -42,18 +43,13 @@ constexpr double kToleranceShare = 0.1;
 // ends: where Ipopt's own test can pass it passes at the first (Ipopt's
 // acceptable_iter counts the same way).
 constexpr int kRoundOffIterations = 5;
-// ... and whose relative residual is within this factor of the tolerance: on
-// the largest gravity towers rounding alone leaves Ipopt's iterates at 1-3
-// times the tolerance (the 160-layer tower, 9,280 elements), where the stress
-// QP at the final geometry brings the forces below it (Eq5Runner::run).
+// ... and whose relative residual and dual infeasibility are within these
+// factors of --tol and of Ipopt's `tol`, where rounding holds the iterates on
+// the largest gravity towers (docs/BACKENDS.md, optimal to round-off).
 constexpr double kRoundOffResidualFactor = 10.0;
-// ... and whose dual infeasibility is within this factor of Ipopt's `tol`:
-// there the rounding of the Lagrangian's gradient leaves it at 3e-12 to
-// 6e-12 (the 160-layer tower from eq5-newton's optimum), above the 1e-12.
 constexpr double kRoundOffDualFactor = 10.0;
-// Conjugate-gradient steps of that polish (StressQpOptions::max_polish_steps):
-// at forces 1.8e6 times the largest node weight (the 160-layer gravity tower's
-// optimum at the cap) the residual's last digits take 30-40 of them.
+// Conjugate-gradient steps of the stress QP's force polish, enough for the
+// residual's last digits at forces 1e6 times the node weights.
 constexpr int kForcePolishSteps = 100;
 // Ipopt's Search_Direction_Becomes_Too_Small (ApplicationReturnStatus).
 constexpr int kSearchDirectionTooSmall = 3;
@@ -70,29 +66,41 @@ constexpr int kQuasiDenseOrdering = 6;
 // wanders at large inertia corrections for hundreds (docs/BACKENDS.md).
 constexpr int kColdIterationsAtLeast = 100;
 constexpr int kColdIterationsPerWarmIteration = 5;
-// start=auto: the warm run gets at most this many: from an equilibrium Ipopt
-// converges in tens of iterations or not at all, and the run from the scene
-// then needs the time.
+// start=auto and eq5-newton: the warm run gets at most this many: from an
+// equilibrium Ipopt converges in tens of iterations or not at all, and the run
+// from the scene then needs the time.
 constexpr int kWarmIterationsAtMost = 300;
-// start=auto: and at most this share of the time limit, so that a warm run
-// wandering at a high cost per iteration (the 40-layer tower without gravity:
-// 0.44 s an iteration from the equilibrium, 0.06 s from the scene) leaves the
-// run from the scene its time.
+// ... and at most this share of the time limit (start=eq5-newton: of the time
+// left after eq5-newton), so that a warm run wandering at a high cost per
+// iteration (the 40-layer tower without gravity: 0.44 s an
+// iteration from the equilibrium, 0.06 s from the scene) leaves the run from
+// the scene its time.
 constexpr double kWarmTimeShare = 0.5;
 // start=auto: a warm answer that moves the scene by less than this share of
 // the mean element length is the scene itself to round-off (the change cannot
 // be negative), so no run from the scene can end closer.
 constexpr double kNegligibleChangeOverLength = 1e-9;
 
-// start=eq5-newton from a local optimum (eq5-newton's polish kept): Ipopt's
-// defaults would push every force at its sign margin 1e-2 into the interior
-// and start the barrier at 0.1, and it spends tens of iterations coming back
-// (the scorpion of the minimal blocks: 35 iterations); from the point itself,
-// with a barrier of the optimum's order and bound multipliers mu / slack, it
-// confirms the optimum in a few (5 there). The user's own values win.
+// start=eq5-newton from a local optimum: Ipopt's default bound push (1e-2)
+// and barrier (0.1) would move every force at its sign margin into the
+// interior and cost tens of iterations coming back, so it starts at the point
+// with a barrier of the optimum's order (docs/BACKENDS.md).
 constexpr double kOptimumStartBarrier = 1e-8;
 constexpr double kOptimumStartPush = 1e-10;
 const char* const kPolishKept[] = {"kept", "objective_stationary"};
+
+// Whether eq5-newton's answer is a local optimum of the problem Ipopt solves:
+// its polish kept (or the stationary stop), and with `capped` not the held
+// polish that eq5-newton falls back to, an optimum of the held problem only.
+bool at_local_optimum(const SolveResult& eq5_newton, bool capped) {
+  if (eq5_newton.details.size() != 1 || !eq5_newton.details.front()) return false;
+  const nlohmann::json d = eq5_newton.details.front()->to_json();
+  const auto polish = d.find("polish");
+  if (polish == d.end() || !polish->is_string()) return false;
+  if (capped && d.value("prestress_held", false)) return false;
+  return std::find(std::begin(kPolishKept), std::end(kPolishKept), polish->get<std::string>()) !=
+         std::end(kPolishKept);
+}
 
 // The answer another backend (alternating-gn, eq5-newton) reaches from the
 // part's geometry, or an empty result when it does not converge within the
@@ -455,39 +463,41 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
     const bool capped = ipopt_options.prestress == IpoptPrestress::Cap && scale.has_prestress_cap();
     const SolveResult optimum =
         backend_start(part, options, "eq5-newton", {{kPrestressKey, capped || !held_start ? "cap" : "equal"}});
-    if (optimum.positions.cols() == part.num_nodes()) {
+    const bool have_optimum = optimum.positions.cols() == part.num_nodes();
+    if (have_optimum) {
       for (const TracePoint& p : optimum.trace) recorder.record(p);
-      const std::string polish = optimum.details.size() == 1 && optimum.details.front()
-                                     ? optimum.details.front()->to_json().value("polish", "")
-                                     : "";
-      const bool at_optimum = std::find(std::begin(kPolishKept), std::end(kPolishKept), polish) != std::end(kPolishKept);
+      const bool at_optimum = at_local_optimum(optimum, capped);
       std::vector<IpoptOption> at_point;
       if (at_optimum)
         at_point = {{"mu_init", kOptimumStartBarrier}, {"bound_push", kOptimumStartPush},
                     {"bound_frac", kOptimumStartPush}, {"bound_mult_init_method", std::string("mu-based")}};
-      // Away from an optimum eq5-newton's answer is alternating-gn's
-      // equilibrium, whose forces leave the level to the load (as start=auto).
+      // Away from an optimum (alternating-gn's equilibrium or a projected
+      // last iterate) the forces leave the level to the load, as in start=auto.
       const Eigen::VectorXd forces =
           at_optimum || !held_start
               ? optimum.forces
               : eq5_start_forces(part, optimum.positions, scale, optimum.forces, optimum.forces);
       const Eq5Start from{optimum.positions, forces};
       capped_directly = capped;
-      MinimalGeometryChangeNlp capped_nlp(part, scale, PrestressRow::Cap);
-      held = runner.run(capped ? capped_nlp : nlp, &from, std::min(budget, kWarmIterationsAtMost), false,
-                        kWarmTimeShare * options.time_limit_s, at_point);
+      std::optional<MinimalGeometryChangeNlp> capped_nlp;
+      if (capped) capped_nlp.emplace(part, scale, PrestressRow::Cap);
+      // Half the time left after eq5-newton, so that the run from the scene
+      // keeps the other half.
+      const double stop_at = recorder.seconds() + kWarmTimeShare * (options.time_limit_s - recorder.seconds());
+      held = runner.run(capped ? *capped_nlp : nlp, &from, std::min(budget, kWarmIterationsAtMost), false, stop_at,
+                        at_point);
       start_note = std::string(" (started from eq5-newton's ") + (at_optimum ? "local optimum" : "equilibrium") +
                    " after " + std::to_string(optimum.stats.iterations) + " iterations)";
       ipopt_iterations = held.iterations;
     }
-    if (!held.ok() && !recorder.out_of_time()) {
+    if (!have_optimum || (!held.ok() && !recorder.out_of_time())) {
       // No answer from eq5-newton's point: the scene with the budget left,
-      // kept when it verifies.
+      // kept when it verifies (or when there was no such point to run from).
       const int left = std::max(1, budget - ipopt_iterations);
       Eq5Run cold = runner.run(nlp, nullptr, left, true);
       ipopt_iterations += cold.iterations;
       details->cold_start_iterations = cold.iterations;
-      if (&closer(held, cold) == &cold) {
+      if (!have_optimum || &closer(held, cold) == &cold) {
         held = std::move(cold);
         capped_directly = false;
         start_note.clear();

@@ -8,9 +8,12 @@
 // reference force), so its tolerances mean the same at every scene scale.
 // Starting point (option `start`): `scene`, the scene geometry with the stress
 // QP's forces; `alternating-gn`, the equilibrium that alternating-gn reaches
-// from the scene (the scene again when it does not converge); `auto` (the
-// default), both, each with an iteration budget that a converging run does not
-// need, keeping the closer verified answer. docs/BACKENDS.md compares them.
+// from the scene (the scene again when it does not converge); `eq5-newton`,
+// the eq5-newton backend's answer (at a local optimum the point itself, with a
+// barrier of its order), then the scene when that gives no verified answer;
+// `auto` (the default), alternating-gn's equilibrium and the scene, each with
+// an iteration budget that a converging run does not need, keeping the closer
+// verified answer. docs/BACKENDS.md compares them.
 //
 // Defaults: exact Hessian, linear_solver mumps with the QAMD ordering (the
 // force-scale row couples every cable force, and QAMD keeps such quasi-dense
