@@ -448,6 +448,29 @@ TEST(IpoptSolver, Eq5NewtonStartVerifiesTheLargestGravityTower) {
   EXPECT_EQ(details->cold_start_iterations, -1);  // no run from the scene
 }
 
+// start=eq5-newton where eq5-newton gives no answer (the stress test's prism-5
+// with two nodes 1e-6 apart, within a small budget): the run from the scene
+// is the answer, with its own status and a finite point, not an empty result.
+TEST(IpoptSolver, Eq5NewtonStartWithoutAnAnswerFallsBackToTheScene) {
+  constexpr int kSmallBudget = 30;
+  const Structure s = family_case(
+      read_scene_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/prism-5.scene.json"), "near-coincident",
+      "1e-06");
+  SolveOptions o = no_shortcut();
+  o.max_iterations = kSmallBudget;
+  EXPECT_NE(make_solver("eq5-newton")->Solve(s, o, DriverControls{false}).status, Status::Converged);
+  o.backend_options = {{"start", "eq5-newton"}};
+  const SolveResult r = IpoptSolver().Solve(s, o, DriverControls{false});
+  EXPECT_EQ(r.status, Status::MaxIterations) << r.message;
+  ASSERT_EQ(r.positions.cols(), s.num_nodes());
+  EXPECT_TRUE(r.positions.allFinite());
+  EXPECT_TRUE(r.forces.allFinite());
+  const auto* details = dynamic_cast<const IpoptDetails*>(r.details.empty() ? nullptr : r.details.front().get());
+  ASSERT_NE(details, nullptr);
+  EXPECT_TRUE(details->cold_start_kept);
+  EXPECT_EQ(details->cold_start_iterations, kSmallBudget);
+}
+
 // start=eq5-newton without gravity, and under gravity with prestress=equal
 // (eq5-newton then holds the level too): the same optimum as the run from
 // the scene on perturbed prisms, which have one local optimum near the scene.
