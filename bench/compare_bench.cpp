@@ -1,5 +1,6 @@
 // Every registered backend on every benchmark scene, through the same driver
-// as `tensegrity solve` (Solver::Solve, without the equilibrium shortcut).
+// as `tensegrity solve` (Solver::Solve, without the equilibrium shortcut
+// unless --driver_check=1).
 //
 //   build/bench/compare_bench --benchmark_out=compare.json --benchmark_out_format=json
 //       --benchmark_repetitions=3 --trace_dir=traces      (one command line)
@@ -30,6 +31,9 @@
 //   --tower_layers=2,4,... layers of the tower family (default 2,4,8,16,32; empty: none)
 //   --gravity_tower_layers=10,20,...  layers of the gravity tower family
 //                          (default 10,20,40; the whole family is 10,20,40,80,160; empty: none)
+//   --driver_check=1       solve as `tensegrity solve` does, with the driver's
+//                          check whether a scene already stands (default 0: the
+//                          backend alone)
 //
 // Counters (per benchmark, from the last timed run unless said otherwise):
 //   t_1e-4 ... t_1e-10   seconds until the trace first reaches that relative
@@ -157,6 +161,7 @@ struct Config {
   std::vector<int> chain_sizes{2, 4, 8, 16, 32, 64, 128};
   std::vector<int> tower_layers{2, 4, 8, 16, 32};
   std::vector<int> gravity_tower_layers{10, 20, 40};
+  bool driver_check = false;
 };
 Config& config() {
   static Config c;
@@ -291,7 +296,7 @@ void run(benchmark::State& state, const std::string& label, const Structure& sce
   for (auto _ : state) {
     const long long base = g_live_bytes.load(std::memory_order_relaxed);
     g_peak_bytes.store(base, std::memory_order_relaxed);
-    r = solver->Solve(scene, options, DriverControls{false});
+    r = solver->Solve(scene, options, DriverControls{config().driver_check});
     benchmark::DoNotOptimize(r.forces.data());
     peak_heap = std::max(peak_heap, g_peak_bytes.load(std::memory_order_relaxed) - base);
   }
@@ -415,6 +420,9 @@ void parse_own_flags(int* argc, char** argv) {
         config().tower_layers = parse_int_list(value);
       } else if (take_flag(argv[i], "--gravity_tower_layers=", &value)) {
         config().gravity_tower_layers = parse_int_list(value);
+      } else if (take_flag(argv[i], "--driver_check=", &value)) {
+        if (value != "0" && value != "1") throw std::invalid_argument(value);
+        config().driver_check = value == "1";
       } else {
         argv[out++] = argv[i];
       }

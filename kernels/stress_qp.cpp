@@ -12,7 +12,8 @@ namespace tensegrity {
 bool StressQpOptions::IsValid() const {
   return std::isfinite(mu) && mu > 0.0 && std::isfinite(normalisation_weight) &&
          normalisation_weight >= 0.0 && max_iterations >= 0 && max_polish_steps >= 0 &&
-         std::isfinite(optimality_tolerance) && optimality_tolerance > 0.0;
+         std::isfinite(optimality_tolerance) && optimality_tolerance > 0.0 && std::isfinite(give_up_residual) &&
+         give_up_residual > 0.0;
 }
 
 const char* to_string(StressQpStatus status) {
@@ -306,6 +307,14 @@ double Impl::gradient_scale(const SolveState& st, const Eigen::VectorXd& x) cons
   return std::max({f0, x.lpNorm<Eigen::Infinity>(), st.fg_max});
 }
 
+double Impl::relative_residual(const SolveState& st, const Eigen::VectorXd& x) const {
+  double largest = 0.0;
+  for (int k = 0; 3 * k + 2 < rows; ++k) largest = std::max(largest, r.segment<3>(3 * k).norm());
+  const double scale = st.fg ? st.fg_max : x.lpNorm<Eigen::Infinity>();
+  if (largest == 0.0) return 0.0;
+  return scale > 0.0 ? largest / scale : kInf;
+}
+
 }  // namespace stress_qp_detail
 
 using stress_qp_detail::kEps;
@@ -376,7 +385,7 @@ StressQpResult StressQp::solve_from(const Eigen::VectorXd& sigma0, bool warm_sta
   if (st.ok) q.projected_newton(options_, st);
   // The polish runs also after an iteration cap: on a free set that is
   // nearly right it often reaches equilibrium, which the caller verifies.
-  if (st.ok && options_.max_polish_steps > 0) q.polish(options_, st);
+  if (st.ok && !st.gave_up && options_.max_polish_steps > 0) q.polish(options_, st);
   if (options_.polish_to_optimum && st.polish_steps >= options_.max_polish_steps) st.hit_iteration_cap = true;
   return report(st);
 }
@@ -445,6 +454,11 @@ StressQpResult StressQp::report(SolveState& st) {
     result.status = StressQpStatus::NumericalFailure;
     result.message = eq_.degenerate() ? "a zero-length or non-finite element has no direction"
                                       : "a factorization failed or a value was not finite";
+  } else if (st.gave_up) {
+    result.status = StressQpStatus::IterationLimit;
+    result.message = "gave up after " + std::to_string(options_.give_up_after) +
+                     " steps at relative residual " + message_number(st.gave_up_at) + " (above " +
+                     message_number(options_.give_up_residual) + ")";
   } else if (result.kkt_error > st.tolerance) {
     result.status = st.hit_iteration_cap ? StressQpStatus::IterationLimit : StressQpStatus::Stalled;
     result.message = std::string(st.hit_iteration_cap ? "step cap reached (max_iterations " +

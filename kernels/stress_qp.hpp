@@ -97,6 +97,14 @@ struct StressQpOptions {
   // two apart. One conjugate-gradient solve per call; off by default since
   // only a claim of infeasibility needs it.
   bool certify_optimum = false;
+  // Give up after this many projected-Newton steps (as at the step cap, and
+  // without the polish) when the relative residual, the largest free-node
+  // residual over the largest load component (over |sigma|_inf without
+  // loads), is still above give_up_residual. For a caller that only asks
+  // whether a geometry already is a tensegrity: far from one, the rest of the
+  // solve buys nothing it needs. Negative: never.
+  int give_up_after = -1;
+  double give_up_residual = 1e-2;
   bool IsValid() const;              // mu > 0, w >= 0, all finite, counts >= 0
 };
 

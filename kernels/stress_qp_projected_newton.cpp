@@ -82,6 +82,19 @@ void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
       st.hit_iteration_cap = true;
       break;
     }
+    if (iteration == options.give_up_after) {
+      // Judged at the forces a give-up returns: the best visited.
+      const bool best_elsewhere = !record && std::isfinite(st.best_objective) && best_s.size() == m;
+      if (best_elsewhere) evaluate(st, best_s, mu);
+      const double residual = relative_residual(st, best_elsewhere ? best_s : s);
+      if (residual > options.give_up_residual) {
+        if (best_elsewhere) s = best_s;
+        st.gave_up = st.hit_iteration_cap = true;
+        st.gave_up_at = residual;
+        break;
+      }
+      if (best_elsewhere) evaluate(st, s, mu);
+    }
     if (!projected_newton_step(st, record)) {
       if (st.interior_point_used) break;  // no progress is possible at rounding level
       st.stuck = true;  // unless the interior-point phase finds a better neighbourhood

@@ -28,6 +28,8 @@
 #   gravity-towers-10k.md  the same family to 160 layers (9,280 elements) for
 #                  alternating-gn, eq5-newton and ipopt (FIGURES_10K_TIME_LIMIT s, default 120),
 #                  at the solve's default target relative residual 1e-8
+#   gravity-towers-driver.md  alternating-gn and eq5-newton on that family as
+#                  `tensegrity solve` runs them: with the driver's check whether a scene stands
 #   ipopt-starts.md  ipopt's starts on gravity prisms and a tower; MUMPS orderings
 #   nlopt-variants.md  the nlopt backend's formulations and algorithms beside Ipopt on
 #                  the reference and conformance scenes and the scorpions (nlopt_bench
@@ -55,7 +57,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k forces_towers prestress_factor; ipopt_auto_stress and
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor; ipopt_auto_stress and
 # nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
@@ -970,14 +972,14 @@ EOF2
 # gravity_tower_figure NAME TITLE LAYERS FILTER LIMIT: the family at LAYERS, the
 # benchmarks FILTER selects, LIMIT s per solve, into NAME.md and NAME.json.
 gravity_tower_figure() {
-  local name=$1 title=$2 layers=$3 filter=$4 limit=$5 tolerance=${6:-1e-10}
+  local name=$1 title=$2 layers=$3 filter=$4 limit=$5 tolerance=${6:-1e-10} check=${7:-0}
   need_bench
   step "gravity tower family, layers $layers, $filter (time limit $limit s per solve, target $tolerance)"
-  local cmd="$cb --benchmark_filter=$filter --gravity_tower_layers=$layers --chain_sizes= --tower_layers= --time_limit=$limit --tolerance=$tolerance --benchmark_repetitions=1 --benchmark_out=$name.json --benchmark_out_format=json"
+  local cmd="$cb --benchmark_filter=$filter --gravity_tower_layers=$layers --chain_sizes= --tower_layers= --time_limit=$limit --tolerance=$tolerance --driver_check=$check --benchmark_repetitions=1 --benchmark_out=$name.json --benchmark_out_format=json"
   header "$out/$name.md" "$title" "$cmd"
   "$cb" --benchmark_filter="$filter" --gravity_tower_layers="$layers" --chain_sizes= --tower_layers= \
-    --time_limit="$limit" --tolerance="$tolerance" --benchmark_repetitions=1 --benchmark_out="$work/$name.json" \
-    --benchmark_out_format=json >/dev/null 2>"$work/$name.log"
+    --time_limit="$limit" --tolerance="$tolerance" --driver_check="$check" --benchmark_repetitions=1 \
+    --benchmark_out="$work/$name.json" --benchmark_out_format=json >/dev/null 2>"$work/$name.log"
   rm -rf "$work/gt-report"
   "$py" bench/scripts/report.py --json "$work/$name.json" --out "$work/gt-report" >"$work/gt-report.txt"
   cp "$work/$name.json" "$out/$name.json"
@@ -989,6 +991,11 @@ gravity_tower_figure() {
     echo "$limit s of wall time each: a run marked NO stopped at that limit or failed (its label says"
     echo "which). Every backend aims at relative residual $tolerance. Timings are wall seconds on a shared"
     echo "2-core machine, read them together with the load average above."
+    if [ "$check" = 1 ]; then
+      echo
+      echo "Each solve as \`tensegrity solve\` runs it: the driver first asks the stress QP whether the"
+      echo "scene already stands (docs/BACKENDS.md), and the times include that check."
+    fi
     if [ "$tolerance" = 1e-8 ]; then
       echo
       echo "The target is the solve's default, 1e-8: near Eq. 5's optimum on the towers from 80 layers the"
@@ -1023,6 +1030,12 @@ EOF2
     sed -n '/^Scaling families/,/^$/p' "$work/gt-report.txt" | grep -E '^(Scaling|  )'
     echo '```'
   } >>"$out/$name.md"
+}
+
+# The recommended backends as `tensegrity solve` runs them, with the driver's check.
+gravity_towers_driver() {
+  gravity_tower_figure gravity-towers-driver "The gravity tower family through tensegrity solve's driver" \
+    10,20,40,80,160 '^gravity-towers/[^/]+/(alternating-gn|eq5-newton)/' "${FIGURES_10K_TIME_LIMIT:-120}" 1e-8 1
 }
 
 # Every backend on the family up to FIGURES_GRAVITY_TOWER_LAYERS (default 40 layers).
@@ -1268,7 +1281,7 @@ nlopt_variants() {
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k forces_towers prestress_factor}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor}; do
   "$section"
 done
 step "done; figures in $out"

@@ -8,10 +8,10 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "gravity_tower_fixture.hpp"
 #include "formulations/force_scale.hpp"
 #include "formulations/minimal_geometry_change_nlp.hpp"
 #include "model/character.hpp"
@@ -20,7 +20,6 @@
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
 #include "scenes/families.hpp"
-#include "scenes/gravity_tower_family.hpp"
 #include "scenes/suites.hpp"
 #include "scenes/towers.hpp"
 #include "solvers/eq5_newton/eq5_newton_solver.hpp"
@@ -335,11 +334,7 @@ TEST(Eq5Newton, StationaryStopEndsWhereTheKktTestWouldAtTheSameGeometry) {
   constexpr double kSameChange = 1e-4;          // relative, between the two answers
   constexpr double kStationaryKktError = 1e-5;  // interior_newton.cpp's bound at the stop
   constexpr double kTargetResidual = 1e-9;
-  const Structure tower = scenes::gravity_tower(kLayers, [](const Structure& unperturbed) {
-    const SolveResult eq = make_solver("alternating-gn")->Solve(unperturbed, SolveOptions{});
-    if (eq.status != Status::Converged) throw std::runtime_error("no equilibrium of the unperturbed tower");
-    return eq.positions;
-  });
+  const Structure tower = testing::gravity_tower_at_equilibrium(kLayers);
   const auto solver = make_solver("eq5-newton");
   auto solve = [&](const char* stationary_stop) {
     SolveOptions options;

@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "gravity_tower_fixture.hpp"
 #include "model/character.hpp"
 #include "model/errors.hpp"
 #include "model/reference_scenes.hpp"
@@ -20,7 +21,6 @@
 #include "formulations/force_scale.hpp"
 #include "model/verify.hpp"
 #include "scenes/families.hpp"
-#include "scenes/gravity_tower_family.hpp"
 #include "scenes/suites.hpp"
 
 namespace tensegrity {
@@ -426,11 +426,7 @@ TEST(IpoptSolver, Eq5NewtonStartVerifiesTheLargestGravityTower) {
   constexpr int kLayers = 160;
   constexpr int kFewIterations = 40;
   constexpr double kSameChange = 1e-4;  // relative, against eq5-newton's answer
-  const Structure tower = scenes::gravity_tower(kLayers, [](const Structure& unperturbed) {
-    const SolveResult eq = make_solver("alternating-gn")->Solve(unperturbed, SolveOptions{});
-    if (eq.status != Status::Converged) throw std::runtime_error("no equilibrium of the unperturbed tower");
-    return eq.positions;
-  });
+  const Structure tower = testing::gravity_tower_at_equilibrium(kLayers);
   SolveOptions o;
   o.backend_options = {{"start", "eq5-newton"}};
   const SolveResult r = IpoptSolver().Solve(tower, o, DriverControls{false});

@@ -12,6 +12,7 @@
 #include <limits>
 #include <random>
 
+#include "gravity_tower_fixture.hpp"
 #include "scenes/perturb.hpp"
 #include "scenes/towers.hpp"
 #include "formulations/components.hpp"
@@ -606,6 +607,62 @@ TEST(StressQp, SpentStepCapIsIterationLimitNotAProof) {
   const StressQpResult optimum = free_run.solve();
   EXPECT_EQ(optimum.status, StressQpStatus::Optimal) << optimum.message;
   EXPECT_LT(optimum.objective, r.objective);
+}
+
+// give_up_after: far from a tensegrity the QP stops where asked, without the
+// polish, and says at which residual; above that residual it runs on.
+TEST(StressQp, GivesUpFarFromATensegrityOnlyAboveTheResidualAsked) {
+  constexpr int kLayers = 40;
+  const Structure s = testing::gravity_tower_at_equilibrium(kLayers);  // 1 % node noise
+  Equilibrium eq(s);
+  const ForceScale scale = make_force_scale(s);
+  constexpr int kGiveUpAfter = 30;
+  constexpr double kTolerance = 1e-8;
+  auto residual_of = [&](const Eigen::VectorXd& sigma) {
+    return verify(s, s.positions, sigma, kTolerance).relative_residual;
+  };
+  StressQpOptions early;
+  early.give_up_after = kGiveUpAfter;
+  const StressQpResult given_up = StressQp(eq, scale, early).solve();
+  EXPECT_EQ(given_up.status, StressQpStatus::IterationLimit) << given_up.message;
+  EXPECT_EQ(given_up.message.rfind("gave up after 30 steps at relative residual ", 0), 0u) << given_up.message;
+  EXPECT_EQ(given_up.iterations, kGiveUpAfter);
+  EXPECT_EQ(given_up.polish_steps, 0);
+  const double residual = residual_of(given_up.sigma);
+  EXPECT_GT(residual, early.give_up_residual);
+
+  StressQpOptions tolerant = early;
+  tolerant.give_up_residual = 2.0 * residual;
+  const StressQpResult ran_on = StressQp(eq, scale, tolerant).solve();
+  EXPECT_NE(ran_on.message.find("step cap reached (max_iterations 100"), std::string::npos) << ran_on.message;
+  EXPECT_GT(ran_on.polish_steps, 0);
+  EXPECT_LT(ran_on.objective, given_up.objective);
+  EXPECT_GT(residual_of(ran_on.sigma), early.give_up_residual);  // giving up was a right call
+}
+
+// The driver's check (give up after 30 steps above 1e-2) leaves a scene that
+// stands untouched: the stored gravity tower needs the interior-point phase
+// (from step 20) and returns the same forces, bit for bit, as without it.
+TEST(StressQp, GivingUpLeavesAStandingTowerUntouched) {
+  const Structure whole = scenes::tower_equilibrium(std::string(TENSEGRITY_SOURCE_DIR) + "/data", true);
+  const Partition partition = split_into_parts(whole);
+  ASSERT_EQ(partition.parts.size(), 1u);
+  const Structure& s = partition.parts[0].structure;
+  Equilibrium eq(s);
+  const ForceScale scale = make_force_scale(s);
+  StressQpOptions check;
+  check.give_up_after = 30;
+  check.certify_optimum = true;
+  StressQpOptions plain;
+  plain.certify_optimum = true;
+  const StressQpResult checked = StressQp(eq, scale, check).solve();
+  const StressQpResult full = StressQp(eq, scale, plain).solve();
+  ASSERT_EQ(full.status, StressQpStatus::Optimal) << full.message;
+  EXPECT_GT(full.iterations, plain.interior_point_after);  // the case this test is about
+  EXPECT_EQ(checked.status, StressQpStatus::Optimal) << checked.message;
+  EXPECT_EQ(checked.iterations, full.iterations);
+  EXPECT_EQ((checked.sigma - full.sigma).lpNorm<Eigen::Infinity>(), 0.0);
+  EXPECT_LE(relative_residual(s, s.positions, checked.sigma), 1e-10);
 }
 
 TEST(StressQp, FailuresAreReportedNotThrown) {
