@@ -12,8 +12,7 @@ namespace tensegrity {
 bool StressQpOptions::IsValid() const {
   return std::isfinite(mu) && mu > 0.0 && std::isfinite(normalisation_weight) &&
          normalisation_weight >= 0.0 && max_iterations >= 0 && max_polish_steps >= 0 &&
-         std::isfinite(optimality_tolerance) && optimality_tolerance > 0.0 && std::isfinite(give_up_residual) &&
-         give_up_residual > 0.0;
+         std::isfinite(optimality_tolerance) && optimality_tolerance > 0.0 && give_up_residual > 0.0;
 }
 
 const char* to_string(StressQpStatus status) {
@@ -307,11 +306,16 @@ double Impl::gradient_scale(const SolveState& st, const Eigen::VectorXd& x) cons
   return std::max({f0, x.lpNorm<Eigen::Infinity>(), st.fg_max});
 }
 
-double Impl::relative_residual(const SolveState& st, const Eigen::VectorXd& x) const {
+double Impl::largest_node_norm(const Eigen::VectorXd& v) const {
   double largest = 0.0;
-  for (int k = 0; 3 * k + 2 < rows; ++k) largest = std::max(largest, r.segment<3>(3 * k).norm());
-  const double scale = st.fg ? st.fg_max : x.lpNorm<Eigen::Infinity>();
+  for (int k = 0; 3 * k + 2 < rows; ++k) largest = std::max(largest, v.segment<3>(3 * k).norm());
+  return largest;
+}
+
+double Impl::relative_residual(const SolveState& st, const Eigen::VectorXd& x) const {
+  const double largest = largest_node_norm(r);
   if (largest == 0.0) return 0.0;
+  const double scale = st.fg ? largest_node_norm(*st.fg) : x.lpNorm<Eigen::Infinity>();
   return scale > 0.0 ? largest / scale : kInf;
 }
 
@@ -425,9 +429,7 @@ StressQpResult StressQp::report(SolveState& st) {
   result.normalisation_error = e;
   result.equilibrium_norm = q.r.norm();
   result.objective = q.r.squaredNorm() + q.w2 * e * e;
-  double max_node = 0.0;
-  for (int k = 0; 3 * k + 2 < q.rows; ++k) max_node = std::max(max_node, q.r.segment<3>(3 * k).norm());
-  result.max_node_residual = max_node;
+  result.max_node_residual = q.largest_node_norm(q.r);
   double kkt = 0.0;
   for (int i = 0; i < m; ++i) {
     const bool at_lower = q.s[i] <= q.lower[i], at_upper = q.s[i] >= q.upper[i];
@@ -456,8 +458,7 @@ StressQpResult StressQp::report(SolveState& st) {
                                       : "a factorization failed or a value was not finite";
   } else if (st.gave_up) {
     result.status = StressQpStatus::IterationLimit;
-    result.message = "gave up after " + std::to_string(options_.give_up_after) +
-                     " steps at relative residual " + message_number(st.gave_up_at) + " (above " +
+    result.message = "gave up after " + std::to_string(st.iterations) + " steps at relative residual " + message_number(st.gave_up_at) + " (above " +
                      message_number(options_.give_up_residual) + ")";
   } else if (result.kkt_error > st.tolerance) {
     result.status = st.hit_iteration_cap ? StressQpStatus::IterationLimit : StressQpStatus::Stalled;

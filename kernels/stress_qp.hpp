@@ -97,12 +97,12 @@ struct StressQpOptions {
   // two apart. One conjugate-gradient solve per call; off by default since
   // only a claim of infeasibility needs it.
   bool certify_optimum = false;
-  // Give up after this many projected-Newton steps (as at the step cap, and
+  // Give up after this many projected-Newton steps (status IterationLimit,
   // without the polish) when the relative residual, the largest free-node
-  // residual over the largest load component (over |sigma|_inf without
-  // loads), is still above give_up_residual. For a caller that only asks
-  // whether a geometry already is a tensegrity: far from one, the rest of the
-  // solve buys nothing it needs. Negative: never.
+  // residual over the largest free-node load (over |sigma|_inf without
+  // loads; a load shift counts as a load), is still above give_up_residual.
+  // For a caller that only asks whether a geometry already is a tensegrity:
+  // far from one, the rest of the solve buys nothing it needs. Negative: never.
   int give_up_after = -1;
   double give_up_residual = 1e-2;
   bool IsValid() const;              // mu > 0, w >= 0, all finite, counts >= 0
@@ -112,7 +112,7 @@ struct StressQpOptions {
 // either way", each saying why.
 enum class StressQpStatus {
   Optimal,           // KKT conditions met (and certified when asked): the residual is the optimum's
-  IterationLimit,    // max_iterations spent before the KKT conditions were met
+  IterationLimit,    // max_iterations spent before the KKT conditions were met, or given up (give_up_after)
   Stalled,           // no step made progress (at rounding level) before the KKT conditions were met
   Uncertified,       // KKT conditions met, but certify_optimum found no lower bound near the objective
   NumericalFailure,  // a factorization failed, a value was not finite, or a degenerate element

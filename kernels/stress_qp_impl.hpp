@@ -92,7 +92,7 @@ struct SolveState {
   bool interior_point_used = false;
   bool stuck = false;          // projected Newton cannot progress
   bool hit_iteration_cap = false;  // stopped at StressQpOptions::max_iterations
-  bool gave_up = false;            // stopped at StressQpOptions::give_up_after
+  bool gave_up = false;            // stopped at StressQpOptions::give_up_after (not a step cap)
   double gave_up_at = 0.0;         // the relative residual there
   bool last_step_exact = false;
   int nonmonotone_left = 0;
@@ -170,8 +170,10 @@ struct Impl {
   double mu_free_objective(const SolveState& st, const Eigen::VectorXd& x);
   // The scale of gradients and forces that the tolerances are relative to.
   double gradient_scale(const SolveState& st, const Eigen::VectorXd& x) const;
+  // Max over free nodes of |v_i| for a vector of 3 entries per free node.
+  double largest_node_norm(const Eigen::VectorXd& v) const;
   // At forces x (r evaluated there): the largest free-node residual over the
-  // largest load component, or over |x|_inf without loads.
+  // largest free-node load (model/verify's measure), or over |x|_inf without loads.
   double relative_residual(const SolveState& st, const Eigen::VectorXd& x) const;
 
   // Phases.

@@ -89,7 +89,7 @@ void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
       const double residual = relative_residual(st, best_elsewhere ? best_s : s);
       if (residual > options.give_up_residual) {
         if (best_elsewhere) s = best_s;
-        st.gave_up = st.hit_iteration_cap = true;
+        st.gave_up = true;
         st.gave_up_at = residual;
         break;
       }

@@ -994,7 +994,8 @@ gravity_tower_figure() {
     if [ "$check" = 1 ]; then
       echo
       echo "Each solve as \`tensegrity solve\` runs it: the driver first asks the stress QP whether the"
-      echo "scene already stands (docs/BACKENDS.md), and the times include that check."
+      echo "scene already stands (docs/BACKENDS.md). Wall and CPU seconds include that check; the"
+      echo "t(1e-4) ... t(1e-10) columns count from the backend's start, as its trace does."
     fi
     if [ "$tolerance" = 1e-8 ]; then
       echo

@@ -100,16 +100,16 @@ SolveResult unchanged_part(const Structure& part, Eigen::VectorXd forces, Status
   return r;
 }
 
-// The stress QP's step cap in forces_at_own_geometry.
+// The stress QP's effort in forces_at_own_geometry.
 enum class FixedGeometryEffort {
-  Check,    // the driver's check whether a scene already stands: the default cap
+  Check,    // the driver's check whether a scene already stands: the default cap, giving up far from one
   Command,  // `forces`, whose answer is the point of the run: kForcesCommandIterations
 };
 
 // The stress QP at the part's own geometry: Converged when it verifies,
 // Infeasible when the QP's optimum leaves a residual (a proof at this
-// geometry), MaxIterations when the QP spent its step cap, Stalled when it
-// stopped short of a certified optimum otherwise.
+// geometry), MaxIterations when the QP spent its step cap or gave up,
+// Stalled when it stopped short of a certified optimum otherwise.
 SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& options,
                                    FixedGeometryEffort effort = FixedGeometryEffort::Check) {
   const auto t0 = Clock::now();

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "gravity_tower_fixture.hpp"
 #include "formulations/force_scale.hpp"
 #include "formulations/minimal_geometry_change_nlp.hpp"
+#include "gravity_tower_fixture.hpp"
 #include "model/character.hpp"
 #include "model/errors.hpp"
 #include "model/json_io.hpp"
