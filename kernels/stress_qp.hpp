@@ -105,7 +105,7 @@ struct StressQpOptions {
   // far from one, the rest of the solve buys nothing it needs. Negative: never.
   int give_up_after = -1;
   double give_up_residual = 1e-2;
-  bool IsValid() const;              // mu > 0, w >= 0, all finite, counts >= 0
+  bool IsValid() const;              // mu > 0, w >= 0, give_up_residual > 0, the rest finite, counts >= 0
 };
 
 // Only Optimal is a claim about the optimum; the next three are "no proof
