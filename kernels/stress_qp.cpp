@@ -459,7 +459,7 @@ StressQpResult StressQp::report(SolveState& st) {
   } else if (st.gave_up) {
     result.status = StressQpStatus::IterationLimit;
     result.message = "gave up after " + std::to_string(st.iterations) + " steps at relative residual " +
-                     message_number(st.gave_up_at) + " (above " + message_number(options_.give_up_residual) + ")";
+                     message_number(q.relative_residual(st, q.s)) + " (above " + message_number(options_.give_up_residual) + ")";
   } else if (result.kkt_error > st.tolerance) {
     result.status = st.hit_iteration_cap ? StressQpStatus::IterationLimit : StressQpStatus::Stalled;
     result.message = std::string(st.hit_iteration_cap ? "step cap reached (max_iterations " +

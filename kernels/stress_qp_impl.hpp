@@ -93,7 +93,6 @@ struct SolveState {
   bool stuck = false;          // projected Newton cannot progress
   bool hit_iteration_cap = false;  // stopped at StressQpOptions::max_iterations
   bool gave_up = false;            // stopped at StressQpOptions::give_up_after (not a step cap)
-  double gave_up_at = 0.0;         // the relative residual there
   bool last_step_exact = false;
   int nonmonotone_left = 0;
   double best_objective = kInf;

@@ -90,7 +90,6 @@ void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
       if (residual > options.give_up_residual) {
         if (best_elsewhere) s = best_s;
         st.gave_up = true;
-        st.gave_up_at = residual;
         break;
       }
       if (best_elsewhere) evaluate(st, s, mu);
