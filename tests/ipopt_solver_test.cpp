@@ -191,7 +191,7 @@ TEST(IpoptSolver, DetailsCarryIpoptsReturnCodeAndIterations) {
   // start=auto: both runs end at max_iter = 2, the run from the scene is the
   // one reported, and the trace also holds alternating-gn's iterations.
   SolveOptions automatic = no_shortcut();
-  automatic.backend_options = {{"max_iter", "2"}};
+  automatic.backend_options = {{"max_iter", "2"}, {"start", "auto"}};
   const SolveResult r = solver.Solve(perturbed(prism(6), 0.05, 10u), automatic, DriverControls{false});
   EXPECT_EQ(r.status, Status::MaxIterations) << r.message;
   const auto* d = dynamic_cast<const IpoptDetails*>(r.details.empty() ? nullptr : r.details.front().get());
@@ -319,7 +319,9 @@ TEST(IpoptSolver, AutoStartCutsAWanderingRunFromTheScene) {
 // scene (no answer can be closer than no change).
 TEST(IpoptSolver, AutoStartSkipsTheSceneRunWhenTheWarmAnswerIsTheScene) {
   const Structure s = read_scene_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/prism-6.scene.json");
-  const SolveResult r = IpoptSolver().Solve(s, no_shortcut(), DriverControls{false});
+  SolveOptions o = no_shortcut();
+  o.backend_options = {{"start", "auto"}};
+  const SolveResult r = IpoptSolver().Solve(s, o, DriverControls{false});
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_LE(r.stats.geometry_change, 1e-9 * s.mean_element_length());
   const auto* details = dynamic_cast<const IpoptDetails*>(r.details.empty() ? nullptr : r.details.front().get());
@@ -416,6 +418,38 @@ TEST(IpoptSolver, Eq5NewtonStartConfirmsItsOptimumInAFewIterations) {
   EXPECT_EQ(details->cold_start_iterations, -1);                // no run from the scene
 }
 
+// The default start is eq5-newton's answer: on the scorpion the default run
+// is the start=eq5-newton run, and start=auto (alternating-gn's equilibrium,
+// then the scene) reaches the same change with many times the Ipopt
+// iterations (64 against 5).
+TEST(IpoptSolver, DefaultStartIsEq5NewtonsAnswer) {
+  constexpr double kSameChange = 1e-6;          // relative
+  constexpr int kAutoIterationsPerDefault = 5;  // at least
+  const Structure s =
+      build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/minimal/scorpion.character.json")
+          .structure;
+  SolveOptions o = no_shortcut();
+  const SolveResult by_default = IpoptSolver().Solve(s, o, DriverControls{false});
+  o.backend_options = {{"start", "eq5-newton"}};
+  const SolveResult from_newton = IpoptSolver().Solve(s, o, DriverControls{false});
+  o.backend_options = {{"start", "auto"}};
+  const SolveResult automatic = IpoptSolver().Solve(s, o, DriverControls{false});
+  ASSERT_EQ(by_default.status, Status::Converged) << by_default.message;
+  ASSERT_EQ(automatic.status, Status::Converged) << automatic.message;
+  EXPECT_EQ(by_default.positions, from_newton.positions);
+  EXPECT_EQ(by_default.message, from_newton.message);
+  EXPECT_NEAR(by_default.stats.geometry_change, automatic.stats.geometry_change,
+              kSameChange * automatic.stats.geometry_change);
+  const auto ipopt_iterations = [](const SolveResult& r) {
+    const auto* d = dynamic_cast<const IpoptDetails*>(r.details.empty() ? nullptr : r.details.front().get());
+    return d ? d->iterations : -1;
+  };
+  std::printf("scorpion: %d Ipopt iterations by default, %d with start=auto\n", ipopt_iterations(by_default),
+              ipopt_iterations(automatic));
+  EXPECT_GT(ipopt_iterations(by_default), 0);
+  EXPECT_GE(ipopt_iterations(automatic), kAutoIterationsPerDefault * ipopt_iterations(by_default));
+}
+
 // The 160-layer gravity tower of the scaling family (9,280 elements): at
 // Ipopt's optimum rounding leaves the relative residual at 1e-8 to 3e-8 and
 // the dual infeasibility above Ipopt's tol, so only the round-off stop (with
@@ -495,11 +529,13 @@ TEST(IpoptSolver, Eq5NewtonStartReachesTheColdStartsOptimum) {
   }
 }
 
-// prestress=cap: the capped run restarts at the held optimum and is kept only
-// when verified and closer to the scene. On prism-6-gravity with gravity along
-// +x (the stress test's case) it moves to another local optimum, nine times
-// closer; on prism-3-gravity the held optimum stays. At both the cap is
-// active: the mean cable force sits at kappa times the weight.
+// prestress=cap from the starts other than eq5-newton's answer (which is a
+// point of the capped problem, solved directly): the capped run restarts at
+// the held optimum and is kept only when verified and closer to the scene. On
+// prism-6-gravity with gravity along +x (the stress test's case) it moves to
+// another local optimum, nine times closer; on prism-3-gravity the held
+// optimum stays. At both the cap is active: the mean cable force sits at
+// kappa times the weight.
 TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
   const IpoptSolver solver;
   SolveOptions bad;
@@ -510,11 +546,12 @@ TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
   constexpr double kBindingPrestressFactor = 1.0;
   SolveOptions capped_options;  // the default, named
   capped_options.prestress_factor = kBindingPrestressFactor;
-  capped_options.backend_options = {{"prestress", "cap"}};
+  capped_options.backend_options = {{"prestress", "cap"}, {"start", "auto"}};
   SolveOptions held_options = capped_options;
-  held_options.backend_options = {{"prestress", "equal"}};
+  held_options.backend_options = {{"prestress", "equal"}, {"start", "auto"}};
   SolveOptions default_options = no_shortcut();
   default_options.prestress_factor = kBindingPrestressFactor;
+  default_options.backend_options = {{"start", "auto"}};
   SolveOptions nlopt_options;
   nlopt_options.prestress_factor = kBindingPrestressFactor;
   const std::string reference = std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/";

@@ -6,14 +6,15 @@
 // Ipopt sees a dimensionless problem: y = ((q - q0) / L, sigma / F0), equality
 // rows f / F0 and c^T sigma / F0 (L = mean element length, F0 the ForceScale
 // reference force), so its tolerances mean the same at every scene scale.
-// Starting point (option `start`): `scene`, the scene geometry with the stress
-// QP's forces; `alternating-gn`, the equilibrium that alternating-gn reaches
-// from the scene (the scene again when it does not converge); `eq5-newton`,
-// the eq5-newton backend's answer (at a local optimum the point itself, with a
-// barrier of its order), then the scene when that gives no verified answer;
-// `auto` (the default), alternating-gn's equilibrium and the scene, each with
-// an iteration budget that a converging run does not need, keeping the closer
-// verified answer. docs/BACKENDS.md compares them.
+// Starting point (option `start`): `eq5-newton` (the default), the eq5-newton
+// backend's answer (at a local optimum the point itself, with a barrier of its
+// order), then the scene when that gives no verified answer; `scene`, the
+// scene geometry with the stress QP's forces; `alternating-gn`, the
+// equilibrium that alternating-gn reaches from the scene (the scene again when
+// it does not converge); `auto`, alternating-gn's equilibrium and the scene,
+// each with an iteration budget that a converging run does not need, keeping
+// the closer verified answer: two runs independent of eq5-newton, for
+// comparing the two. docs/BACKENDS.md compares them.
 //
 // Defaults: exact Hessian, linear_solver mumps with the QAMD ordering (the
 // force-scale row couples every cable force, and QAMD keeps such quasi-dense
@@ -60,11 +61,11 @@ enum class IpoptStart { Auto, Scene, AlternatingGn, Eq5Newton };
 // from the held optimum and keeping the smaller verified change (`cap`).
 enum class IpoptPrestress { Equal, Cap };
 
-// `start=auto|scene|alternating-gn|eq5-newton` (default auto), `prestress=equal|cap`
+// `start=eq5-newton|auto|scene|alternating-gn` (default eq5-newton), `prestress=equal|cap`
 // (default cap: never farther than `equal`, docs/THEORY-force-scale.md) and native Ipopt options given as `--option key=value`,
 // checked against Ipopt's own registry (name, type and range).
 struct IpoptOptions {
-  IpoptStart start = IpoptStart::Auto;
+  IpoptStart start = IpoptStart::Eq5Newton;
   IpoptPrestress prestress = IpoptPrestress::Cap;
   OptionPairs native;  // every pair except `start` and `prestress`
   std::vector<IpoptOption> typed;  // `native` with the types of Ipopt's registry
