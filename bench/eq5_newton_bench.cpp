@@ -1,5 +1,5 @@
-// `eq5-newton` side by side with `alternating-gn` and `ipopt` (warm-started
-// from alternating-gn, and its default start=auto; both with the default
+// `eq5-newton` side by side with `alternating-gn` and `ipopt` (`ipopt-warm`
+// from alternating-gn's equilibrium, `ipopt-auto` with start=auto; both with the default
 // prestress=cap, as eq5-newton: the same Eq. 5, the mean cable force at most
 // kappa W) on the gravity tower family and the 80-strut / 500-cable gravity tower.
 //
@@ -71,7 +71,7 @@ const std::vector<Backend>& backends() {
       {"eq5-newton", "eq5-newton", {}},
       // Ipopt on the same Eq. 5 (the mean cable force at most kappa W).
       {"ipopt-warm", "ipopt", {{"start", "alternating-gn"}}},
-      {"ipopt", "ipopt", {}},
+      {"ipopt-auto", "ipopt", {{"start", "auto"}}},
   };
   return b;
 }
