@@ -38,6 +38,8 @@
 #                  geometry change, ipopt and alternating-gn, gravity scenes and characters
 #   ipopt-auto-stress.md  ipopt start=scene against start=auto over the stress
 #                  test (only when FIGURES_SECTIONS names ipopt_auto_stress)
+#   ipopt-default-stress.md  ipopt start=auto against its default start=eq5-newton
+#                  over the stress test (only when FIGURES_SECTIONS names ipopt_default_stress)
 #   *.png          report.py's plots of the comparison and scaling runs
 # Section outputs writes into docs/ instead (FIGURES_DOCS, default docs): what
 # docs/OUTPUTS.md and docs/PYTHON.md show, each folder with its record:
@@ -57,8 +59,8 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor; ipopt_auto_stress and
-# nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor; ipopt_auto_stress,
+# ipopt_default_stress and nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -785,6 +787,44 @@ ipopt_auto_stress() {
     "$py" bench/scripts/compare_stress.py "$work/stress-ipopt-scene.json" "$work/stress-ipopt-auto.json" --list
     echo '```'
   } >>"$out/ipopt-auto-stress.md"
+}
+
+# Not in the default list (about 8 minutes on two cores): ipopt's start=auto
+# against its default, start=eq5-newton, over every stress-test family and scene.
+ipopt_default_stress() {
+  step "ipopt-default-stress.md: ipopt start=auto vs the default start=eq5-newton, stress test of every scene"
+  local cmd="$tg stress-test --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option start=auto|eq5-newton --quiet --out stress-ipopt-START.json"
+  for start in auto eq5-newton; do
+    "$tg" stress-test --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option "start=$start" \
+      --quiet --out "$work/stress-ipopt-$start.json" >/dev/null || true
+  done
+  header "$out/ipopt-default-stress.md" "ipopt: start=auto against the default start=eq5-newton on the stress test" "$cmd" \
+    "&& bench/scripts/compare_stress.py stress-ipopt-auto.json stress-ipopt-eq5-newton.json --list"
+  {
+    echo '```'
+    "$py" bench/scripts/compare_stress.py "$work/stress-ipopt-auto.json" "$work/stress-ipopt-eq5-newton.json" --list
+    echo '```'
+    echo
+    echo "The as-generated towers without gravity (\`$tg generate tower --layers L --struts-per-layer 8"
+    echo "--cables 50L\`), where the optimum lies far from alternating-gn's equilibrium; solver seconds, one run each:"
+    echo
+    echo "| layers | start | status | iterations (every stage's) | seconds | geometry change (m) |"
+    echo "|---:|---|---|---:|---:|---:|"
+    local layers start
+    for layers in 10 20; do
+      "$tg" generate tower --layers "$layers" --struts-per-layer 8 --cables $((50 * layers)) \
+        --out "$work/plain-$layers.scene.json" >/dev/null
+      for start in auto eq5-newton; do
+        "$tg" solve "$work/plain-$layers.scene.json" --solver ipopt --option "start=$start" --time-limit 60 \
+          --out "$work/plain.json" >/dev/null 2>&1 || true
+        "$py" - "$work/plain.json" "$layers" "$start" <<'EOF2'
+import json, sys
+d = json.load(open(sys.argv[1])); s = d["stats"]
+print(f"| {sys.argv[2]} | {sys.argv[3]} | {d['status']} | {s['iterations']} | {s['seconds']:.3g} | {s['geometry_change']:.5g} |")
+EOF2
+      done
+    done
+  } >>"$out/ipopt-default-stress.md"
 }
 
 nlopt_auto_stress() {

@@ -15,6 +15,7 @@ import json
 import statistics
 
 SAME = 1e-6
+CLEARLY = 0.01  # a change more than 1 % apart: another local optimum, not rounding
 
 
 def load(path):
@@ -59,7 +60,9 @@ def main():
     print(f"solved by both: {closer + farther + same}; the second closer on {closer}, farther on {farther}, "
           f"the same change on {same}; solved by the first only {len(only_first)}, by the second only {len(only_second)}")
     if ratios:
-        print(f"change second / first: smallest {min(ratios):.3g}, largest {max(ratios):.3g}")
+        print(f"change second / first: smallest {min(ratios):.3g}, largest {max(ratios):.3g}; "
+              f"more than 1 % closer on {sum(r < 1 - CLEARLY for r in ratios)}, "
+              f"more than 1 % farther on {sum(r > 1 + CLEARLY for r in ratios)}")
     sa = sum(a[k]["seconds"] for k in keys)
     sb = sum(b[k]["seconds"] for k in keys)
     ma = statistics.median(a[k]["seconds"] for k in keys)
@@ -72,7 +75,7 @@ def main():
         for k in only_second:
             print("  second only:", k, b[k]["iterations"], "iterations;", "first:", a[k]["status"])
         for k in keys:
-            if solved(a[k]) and solved(b[k]) and b[k]["geometry_change"] > 1.01 * a[k]["geometry_change"]:
+            if solved(a[k]) and solved(b[k]) and b[k]["geometry_change"] > (1 + CLEARLY) * a[k]["geometry_change"]:
                 print("  farther:", k, a[k]["geometry_change"], "->", b[k]["geometry_change"])
 
 
