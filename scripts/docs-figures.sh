@@ -771,39 +771,43 @@ character_stress() {
 }
 
 # --- ipopt: cold and warm start, MUMPS orderings ----------------------------------
+# ipopt_start_stress FILE TITLE FIRST SECOND [SCENE ARGS...]: the stress test
+# with ipopt at two starts, one after the other, and compare_stress.py's
+# comparison of the two into $out/FILE.
+ipopt_start_stress() {
+  local file=$1 title=$2 first=$3 second=$4 start
+  shift 4
+  local scenes=${*:+$* }
+  local cmd="$tg stress-test $scenes--trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option start=$first|$second --quiet --out stress-ipopt-START.json"
+  for start in "$first" "$second"; do
+    "$tg" stress-test "$@" --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option "start=$start" \
+      --quiet --out "$work/stress-ipopt-$start.json" >/dev/null || true
+  done
+  header "$out/$file" "$title" "$cmd" \
+    "&& bench/scripts/compare_stress.py stress-ipopt-$first.json stress-ipopt-$second.json --list"
+  {
+    echo '```'
+    "$py" bench/scripts/compare_stress.py "$work/stress-ipopt-$first.json" "$work/stress-ipopt-$second.json" --list
+    echo '```'
+  } >>"$out/$file"
+}
+
 # Not in the default list (about 30 minutes on two cores): ipopt's start=scene
 # against start=auto over every stress-test family of the reference scenes.
 ipopt_auto_stress() {
   step "ipopt-auto-stress.md: ipopt start=scene vs start=auto, stress test of the reference scenes"
-  local cmd="$tg stress-test --scenes reference --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option start=scene|auto --quiet --out stress-ipopt-START.json"
-  for start in scene auto; do
-    "$tg" stress-test --scenes reference --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option "start=$start" \
-      --quiet --out "$work/stress-ipopt-$start.json" >/dev/null || true
-  done
-  header "$out/ipopt-auto-stress.md" "ipopt: start=scene against start=auto on the stress test" "$cmd" \
-    "&& bench/scripts/compare_stress.py stress-ipopt-scene.json stress-ipopt-auto.json --list"
-  {
-    echo '```'
-    "$py" bench/scripts/compare_stress.py "$work/stress-ipopt-scene.json" "$work/stress-ipopt-auto.json" --list
-    echo '```'
-  } >>"$out/ipopt-auto-stress.md"
+  ipopt_start_stress ipopt-auto-stress.md "ipopt: start=scene against start=auto on the stress test" \
+    scene auto --scenes reference
 }
 
 # Not in the default list (about 8 minutes on two cores): ipopt's start=auto
-# against its default, start=eq5-newton, over every stress-test family and scene.
+# against its default, start=eq5-newton, over every stress-test family and
+# scene, then both on the as-generated towers without gravity.
 ipopt_default_stress() {
   step "ipopt-default-stress.md: ipopt start=auto vs the default start=eq5-newton, stress test of every scene"
-  local cmd="$tg stress-test --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option start=auto|eq5-newton --quiet --out stress-ipopt-START.json"
-  for start in auto eq5-newton; do
-    "$tg" stress-test --trials 1 --jobs 2 --time-limit 20 --solvers ipopt --option "start=$start" \
-      --quiet --out "$work/stress-ipopt-$start.json" >/dev/null || true
-  done
-  header "$out/ipopt-default-stress.md" "ipopt: start=auto against the default start=eq5-newton on the stress test" "$cmd" \
-    "&& bench/scripts/compare_stress.py stress-ipopt-auto.json stress-ipopt-eq5-newton.json --list"
+  ipopt_start_stress ipopt-default-stress.md "ipopt: start=auto against the default start=eq5-newton on the stress test" \
+    auto eq5-newton
   {
-    echo '```'
-    "$py" bench/scripts/compare_stress.py "$work/stress-ipopt-auto.json" "$work/stress-ipopt-eq5-newton.json" --list
-    echo '```'
     echo
     echo "The as-generated towers without gravity (\`$tg generate tower --layers L --struts-per-layer 8"
     echo "--cables 50L\`), where the optimum lies far from alternating-gn's equilibrium; solver seconds, one run each:"

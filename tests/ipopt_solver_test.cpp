@@ -544,7 +544,7 @@ TEST(IpoptSolver, PrestressCapNeverEndsFartherThanTheHeldLevel) {
 
   // kappa = 1, where the behaviour above was measured: the cap binds on both prisms.
   constexpr double kBindingPrestressFactor = 1.0;
-  SolveOptions capped_options;  // the default, named
+  SolveOptions capped_options;  // the default prestress, named
   capped_options.prestress_factor = kBindingPrestressFactor;
   capped_options.backend_options = {{"prestress", "cap"}, {"start", "auto"}};
   SolveOptions held_options = capped_options;
