@@ -501,6 +501,33 @@ TEST(IpoptSolver, Eq5NewtonStartWithoutAnAnswerFallsBackToTheScene) {
   EXPECT_EQ(details->cold_start_iterations, kSmallBudget);
 }
 
+// start=eq5-newton where Ipopt does not converge from eq5-newton's answer
+// (the stress test's prism-4 with length ratio 1e4: eq5-newton's stationary
+// point, 6.04 m from the scene): before the scene, Ipopt runs from
+// alternating-gn's equilibrium and converges there, to start=alternating-gn's
+// answer; from the scene alone it does not converge within the budget.
+TEST(IpoptSolver, Eq5NewtonStartFallsBackToAlternatingGnsEquilibrium) {
+  constexpr double kSameChange = 1e-6;  // relative
+  const Structure s = family_case(
+      read_scene_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/prism-4.scene.json"), "length-ratio",
+      "10000");
+  SolveOptions o;
+  o.time_limit_s = 20.0;
+  const SolveResult by_default = IpoptSolver().Solve(s, o);
+  o.backend_options = {{"start", "alternating-gn"}};
+  const SolveResult from_equilibrium = IpoptSolver().Solve(s, o);
+  o.backend_options = {{"start", "scene"}};
+  const SolveResult from_scene = IpoptSolver().Solve(s, o);
+  ASSERT_EQ(by_default.status, Status::Converged) << by_default.message;
+  ASSERT_EQ(from_equilibrium.status, Status::Converged) << from_equilibrium.message;
+  EXPECT_NE(from_scene.status, Status::Converged) << from_scene.message;
+  EXPECT_NE(by_default.message.find("started from alternating-gn's equilibrium"), std::string::npos)
+      << by_default.message;
+  EXPECT_TRUE(verify(s, by_default.positions, by_default.forces, o.tolerance).ok);
+  EXPECT_NEAR(by_default.stats.geometry_change, from_equilibrium.stats.geometry_change,
+              kSameChange * from_equilibrium.stats.geometry_change);
+}
+
 // start=eq5-newton without gravity, and under gravity with prestress=equal
 // (eq5-newton then holds the level too): the same optimum as the run from
 // the scene on perturbed prisms, which have one local optimum near the scene.
