@@ -8,7 +8,8 @@
 // reference force), so its tolerances mean the same at every scene scale.
 // Starting point (option `start`): `eq5-newton` (the default), the eq5-newton
 // backend's answer (at a local optimum the point itself, with a barrier of its
-// order), then the scene when that gives no verified answer; `scene`, the
+// order), then, while no run gives a verified answer, alternating-gn's
+// equilibrium and the scene; `scene`, the
 // scene geometry with the stress QP's forces; `alternating-gn`, the
 // equilibrium that alternating-gn reaches from the scene (the scene again when
 // it does not converge); `auto`, alternating-gn's equilibrium and the scene,
@@ -53,7 +54,8 @@ namespace tensegrity {
 // the closer verified answer. `Eq5Newton` starts at eq5-newton's local
 // optimum (at the point itself, with a barrier of the optimum's order) and
 // solves the capped problem directly under gravity with prestress=cap; only
-// when that run gives no verified answer does Ipopt run from the scene.
+// when that run gives no verified answer does Ipopt run from alternating-gn's
+// equilibrium, and then from the scene.
 enum class IpoptStart { Auto, Scene, AlternatingGn, Eq5Newton };
 
 // Under gravity, Eq. 5's mean cable force: held at kappa times the weight
