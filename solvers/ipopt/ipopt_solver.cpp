@@ -422,6 +422,11 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       max_free_weight > 0.0 ? std::min(1.0, max_free_weight / scale.reference_force) : 1.0;
   const double constraint_tolerance = kToleranceShare * options.tolerance * load_over_force / std::sqrt(3.0);
 
+  // A warm start's forces: under gravity the stress QP's at its geometry with
+  // the level held at the cap (its own forces leave the level to the load).
+  auto warm_start_forces = [&](const SolveResult& start) -> Eigen::VectorXd {
+    return held_start ? eq5_start_forces(part, start.positions, scale, start.forces, start.forces) : start.forces;
+  };
   Eq5Runner runner{part, options, scale, sigma0, max_free_weight, {}, recorder};
   IpoptSettings& settings = runner.settings;
   settings.verbose = options.verbose;
@@ -473,10 +478,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
                     {"bound_frac", kOptimumStartPush}, {"bound_mult_init_method", std::string("mu-based")}};
       // Away from an optimum (alternating-gn's equilibrium or a projected
       // last iterate) the forces leave the level to the load, as in start=auto.
-      const Eigen::VectorXd forces =
-          at_optimum || !held_start
-              ? optimum.forces
-              : eq5_start_forces(part, optimum.positions, scale, optimum.forces, optimum.forces);
+      const Eigen::VectorXd forces = at_optimum ? optimum.forces : warm_start_forces(optimum);
       const Eq5Start from{optimum.positions, forces};
       capped_directly = capped;
       std::optional<MinimalGeometryChangeNlp> capped_nlp;
@@ -497,9 +499,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
         // other points it does not).
         const SolveResult equilibrium = backend_start(part, options, "alternating-gn");
         if (equilibrium.positions.cols() == part.num_nodes() && equilibrium.positions != optimum.positions) {
-          const Eigen::VectorXd equilibrium_forces =
-              held_start ? eq5_start_forces(part, equilibrium.positions, scale, equilibrium.forces, equilibrium.forces)
-                         : equilibrium.forces;
+          const Eigen::VectorXd equilibrium_forces = warm_start_forces(equilibrium);
           const Eq5Start from_equilibrium{equilibrium.positions, equilibrium_forces};
           const double until = recorder.seconds() + kWarmTimeShare * (options.time_limit_s - recorder.seconds());
           Eq5Run warm = runner.run(nlp, &from_equilibrium,
@@ -540,9 +540,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       const double warm_until = ipopt_options.start == IpoptStart::Auto
                                     ? kWarmTimeShare * options.time_limit_s
                                     : std::numeric_limits<double>::infinity();
-      const Eigen::VectorXd warm_forces =
-          held_start ? eq5_start_forces(part, equilibrium.positions, scale, equilibrium.forces, equilibrium.forces)
-                     : equilibrium.forces;
+      const Eigen::VectorXd warm_forces = warm_start_forces(equilibrium);
       const Eq5Start from{equilibrium.positions, warm_forces};
       warm = runner.run(nlp, &from, warm_budget, false, warm_until);
       start_note = " (started from alternating-gn's equilibrium after " +
