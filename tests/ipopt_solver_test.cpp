@@ -34,6 +34,13 @@ double scene_size(const Structure& s) {
   return (s.positions.rowwise().maxCoeff() - s.positions.rowwise().minCoeff()).norm();
 }
 
+// The scorpion of the minimal block templates (503 elements, under gravity,
+// 0.12 mm from an optimum of Eq. 5 as built).
+Structure minimal_scorpion() {
+  return build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/minimal/scorpion.character.json")
+      .structure;
+}
+
 // The driver shortcut is switched off at each call (DriverControls{false}).
 SolveOptions no_shortcut() {
   SolveOptions o;
@@ -359,9 +366,7 @@ TEST(IpoptSolver, SceneStartUnderGravityHoldsTheLevelAtTheCap) {
 // moved 0.09 m away (the optimum is 0.12 mm from the scene) and took 37
 // iterations to the optimum that the run from the scene reaches.
 TEST(IpoptSolver, WarmStartUnderGravityHoldsTheLevelAtTheCap) {
-  const Structure s =
-      build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/minimal/scorpion.character.json")
-          .structure;
+  const Structure s = minimal_scorpion();
   auto with_start = [](const char* start) {
     SolveOptions o = no_shortcut();
     o.backend_options = {{"start", start}};
@@ -391,9 +396,7 @@ TEST(IpoptSolver, WarmStartUnderGravityHoldsTheLevelAtTheCap) {
 TEST(IpoptSolver, Eq5NewtonStartConfirmsItsOptimumInAFewIterations) {
   constexpr int kFewIterations = 10;
   constexpr double kSameChange = 1e-6;  // relative
-  const Structure s =
-      build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/minimal/scorpion.character.json")
-          .structure;
+  const Structure s = minimal_scorpion();
   SolveOptions o = no_shortcut();
   o.backend_options = {{"start", "eq5-newton"}};
   const SolveResult from_optimum = IpoptSolver().Solve(s, o, DriverControls{false});
@@ -425,9 +428,7 @@ TEST(IpoptSolver, Eq5NewtonStartConfirmsItsOptimumInAFewIterations) {
 TEST(IpoptSolver, DefaultStartIsEq5NewtonsAnswer) {
   constexpr double kSameChange = 1e-6;          // relative
   constexpr int kAutoIterationsPerDefault = 5;  // at least
-  const Structure s =
-      build_character_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/characters/minimal/scorpion.character.json")
-          .structure;
+  const Structure s = minimal_scorpion();
   SolveOptions o = no_shortcut();
   const SolveResult by_default = IpoptSolver().Solve(s, o, DriverControls{false});
   o.backend_options = {{"start", "eq5-newton"}};
