@@ -78,12 +78,14 @@ class SparseNlpTnlp final : public Ipopt::TNLP {
   bool get_starting_point(Index, bool init_x, Number* x, bool init_z, Number* z_L, Number* z_U, Index,
                           bool init_lambda, Number* lambda) override {
     if (init_x) problem_.starting_point(Eigen::Map<Eigen::VectorXd>(x, n_));
-    // Only asked for under warm_start_init_point=yes: neutral multipliers.
-    if (init_z) {
-      Eigen::Map<Eigen::VectorXd>(z_L, n_).setOnes();
-      Eigen::Map<Eigen::VectorXd>(z_U, n_).setOnes();
-    }
-    if (init_lambda) Eigen::Map<Eigen::VectorXd>(lambda, m_).setZero();
+    // Only asked for under warm_start_init_point=yes: the problem's own, or
+    // neutral multipliers.
+    if (!init_z || !init_lambda) return !init_z && !init_lambda;  // Ipopt asks for both or neither
+    Eigen::Map<Eigen::VectorXd> lower(z_L, n_), upper(z_U, n_), rows(lambda, m_);
+    if (problem_.starting_multipliers(rows, lower, upper)) return true;
+    lower.setOnes();
+    upper.setOnes();
+    rows.setZero();
     return true;
   }
 

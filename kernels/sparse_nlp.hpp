@@ -65,6 +65,13 @@ class SparseNlp {
   // one-sided rows: then a point of local infeasibility proves infeasibility.
   virtual bool is_convex() const { return false; }
 
+  // Multipliers to start from (in the convention of NlpSolution), for a
+  // start at a known KKT point; false (the default) leaves the solver its own.
+  virtual bool starting_multipliers(Vector /*constraint_multipliers*/, Vector /*lower_bound_multipliers*/,
+                                    Vector /*upper_bound_multipliers*/) const {
+    return false;
+  }
+
   // The solver's last point, whatever its outcome (not called when it
   // stopped before having one).
   virtual void finalize(const NlpSolution& /*solution*/) {}

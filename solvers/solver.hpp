@@ -94,6 +94,16 @@ struct DriverControls {
 struct SolverDetails {
   virtual ~SolverDetails() = default;
   virtual nlohmann::json to_json() const = 0;
+
+  // Eq. 5's multipliers at the part's answer, where the backend ends at a
+  // KKT point of it; empty otherwise, and not written
+  // to the solution file. In the terms of MinimalGeometryChangeNlp
+  // (grad phi + J^T rows - z_lower + z_upper = 0 in z = (q, sigma)): `rows`
+  // per row of its constraints (1/N), `force_bounds` per member the multiplier
+  // of its sign bound (>= 0, 1/N: z_lower of a cable, z_upper of a strut).
+  // Another backend can start from them (ipopt from eq5-newton's answer).
+  Eigen::VectorXd eq5_row_multipliers;
+  Eigen::VectorXd eq5_force_bound_multipliers;
 };
 
 struct SolveResult {

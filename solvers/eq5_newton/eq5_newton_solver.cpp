@@ -179,6 +179,15 @@ void add_counts(const InteriorNewtonOutcome& outcome, Eq5NewtonDetails& details)
   details.complementarity = outcome.complementarity;
 }
 
+// The multipliers of a KKT point in the NLP's terms (solver.hpp): the
+// scaled rows and force bounds both carry 1 / F0. Not of the stationary
+// stop's approximate optimum, whose residual dual infeasibility sends Ipopt
+// along the forces' nearly free directions.
+void record_multipliers(const PolishRun& run, double reference_force, Eq5NewtonDetails& details) {
+  details.eq5_row_multipliers = run.outcome.lambda / reference_force;
+  details.eq5_force_bound_multipliers = run.outcome.bound_multipliers.head(run.forces.size()) / reference_force;
+}
+
 // The KKT residuals of an earlier polish whose answer stays (the counts keep summing).
 void keep_residuals(const Eq5NewtonDetails& earlier, Eq5NewtonDetails& details) {
   details.dual_infeasibility = earlier.dual_infeasibility;
@@ -332,6 +341,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   }
   if (run.cap_slack)
     details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
+  if (run.outcome.status == Status::Converged) record_multipliers(run, scale.reference_force, *details);
   SolveResult result;
   result.status = Status::Converged;
   const char* answer =

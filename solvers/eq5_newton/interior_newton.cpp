@@ -278,6 +278,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   objective_history.push_back(here.objective);
   out.y = y;
   out.lambda = lambda;
+  out.bound_multipliers = v;
 
   // The last iterate of a polish that ends without an answer (a stalled line
   // search, the budget spent) may already be much closer to the scene than
@@ -301,6 +302,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     out.iterations = iteration;
     out.y = y;
     out.lambda = lambda;
+    out.bound_multipliers = v;
     if (out.dual_infeasibility <= settings.optimality_tolerance &&
         out.complementarity <= settings.optimality_tolerance &&
         out.constraint_violation <= settings.constraint_tolerance) {

@@ -73,6 +73,7 @@ struct InteriorNewtonOutcome {
   std::string message;
   Eigen::VectorXd y;            // last accepted point (scaled)
   Eigen::VectorXd lambda;       // equality multipliers (scaled)
+  Eigen::VectorXd bound_multipliers;  // v >= 0 of the bounds d(y) >= 0, at `lambda`'s point
   int iterations = 0;
   int factorizations = 0;
   int inertia_corrections = 0;  // factorizations repeated with a larger delta_w

@@ -42,6 +42,27 @@ void DimensionlessEq5::set_start(const Eigen::VectorXd& q, const Eigen::VectorXd
   y0_.tail(m_) = sigma / force_;
 }
 
+void DimensionlessEq5::set_start_multipliers(const Eigen::VectorXd& rows, const Eigen::VectorXd& force_bounds) {
+  // With c_y = c_z / F0 and y_sigma = sigma / F0 both kinds scale by F0.
+  start_rows_ = force_ * rows;
+  start_lower_ = Eigen::VectorXd::Zero(n_);
+  start_upper_ = Eigen::VectorXd::Zero(n_);
+  Eigen::VectorXd z_lower, z_upper;
+  nlp_.variable_bounds(z_lower, z_upper);
+  for (int e = 0; e < m_; ++e) {
+    const bool cable = std::isfinite(z_lower[nq_ + e]);
+    (cable ? start_lower_ : start_upper_)[nq_ + e] = force_ * force_bounds[e];
+  }
+}
+
+bool DimensionlessEq5::starting_multipliers(Vector lambda, Vector z_lower, Vector z_upper) const {
+  if (start_rows_.size() != ncon_) return false;
+  lambda = start_rows_;
+  z_lower = start_lower_;
+  z_upper = start_upper_;
+  return true;
+}
+
 void DimensionlessEq5::variable_bounds(Vector lower, Vector upper) const {
   Eigen::VectorXd z_lower, z_upper;
   nlp_.variable_bounds(z_lower, z_upper);

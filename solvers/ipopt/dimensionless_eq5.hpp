@@ -26,12 +26,17 @@ class DimensionlessEq5 final : public SparseNlp {
   // Starts instead at free coordinates q (m) and forces sigma (N); the
   // objective still measures the change from the scene geometry.
   void set_start(const Eigen::VectorXd& q, const Eigen::VectorXd& sigma);
+  // Also starts from these multipliers (SolverDetails' Eq. 5 multipliers:
+  // per row 1/N, per member's sign bound 1/N); Ipopt reads them under
+  // warm_start_init_point=yes.
+  void set_start_multipliers(const Eigen::VectorXd& rows, const Eigen::VectorXd& force_bounds);
 
   int num_variables() const override { return n_; }
   int num_constraints() const override { return ncon_; }
   void variable_bounds(Vector lower, Vector upper) const override;
   void constraint_bounds(Vector lower, Vector upper) const override;
   void starting_point(Vector y) const override { y = y0_; }
+  bool starting_multipliers(Vector lambda, Vector z_lower, Vector z_upper) const override;
   bool objective(const ConstVector& y, double& value) override;
   bool gradient(const ConstVector& y, Vector gradient) override;
   bool constraints(const ConstVector& y, Vector values) override;
@@ -63,6 +68,7 @@ class DimensionlessEq5 final : public SparseNlp {
   int nq_ = 0, m_ = 0, n_ = 0, ncon_ = 0;
   double length_ = 1.0, force_ = 1.0;
   Eigen::VectorXd q0_, variable_scale_, y0_, z_, c_, grad_, lambda_, z_final_;
+  Eigen::VectorXd start_rows_, start_lower_, start_upper_;  // scaled; empty: Ipopt's own
   SparsityPattern jacobian_, hessian_;
   std::vector<double> jac_factor_, hess_factor_;
   int evaluations_ = 0;

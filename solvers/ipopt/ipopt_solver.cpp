@@ -88,6 +88,16 @@ constexpr double kNegligibleChangeOverLength = 1e-9;
 constexpr double kOptimumStartBarrier = 1e-8;
 constexpr double kOptimumStartPush = 1e-10;
 const char* const kPolishKept[] = {"kept", "objective_stationary"};
+// ... and there also from eq5-newton's multipliers, held as they are: Ipopt's
+// defaults would push every bound multiplier to 1e-3 and every slack to
+// 1e-3 of its bound, undoing the optimum it starts at.
+constexpr double kWarmStartPush = 1e-12;
+const std::vector<IpoptOption> kWarmStartOptions = {{"warm_start_init_point", std::string("yes")},
+                                                    {"warm_start_bound_push", kWarmStartPush},
+                                                    {"warm_start_bound_frac", kWarmStartPush},
+                                                    {"warm_start_slack_bound_push", kWarmStartPush},
+                                                    {"warm_start_slack_bound_frac", kWarmStartPush},
+                                                    {"warm_start_mult_bound_push", kWarmStartPush}};
 
 // Whether eq5-newton's answer is a local optimum of the problem Ipopt solves:
 // its polish kept (or the stationary stop), and with `capped` not the held
@@ -100,6 +110,13 @@ bool at_local_optimum(const SolveResult& eq5_newton, bool capped) {
   if (capped && d.value("prestress_held", false)) return false;
   return std::find(std::begin(kPolishKept), std::end(kPolishKept), polish->get<std::string>()) !=
          std::end(kPolishKept);
+}
+
+// eq5-newton's multipliers at its answer, where it has them for the part.
+const SolverDetails* optimum_multipliers(const SolveResult& eq5_newton) {
+  if (eq5_newton.details.size() != 1 || !eq5_newton.details.front()) return nullptr;
+  const SolverDetails& d = *eq5_newton.details.front();
+  return d.eq5_row_multipliers.size() > 0 ? &d : nullptr;
 }
 
 // The answer another backend (alternating-gn, eq5-newton) reaches from the
@@ -265,6 +282,8 @@ struct Eq5Run {
 struct Eq5Start {
   const Eigen::Matrix3Xd& positions;
   const Eigen::VectorXd& forces;
+  // Eq. 5's multipliers at that point (SolverDetails), or null.
+  const SolverDetails* multipliers = nullptr;
 };
 
 // What every run of one part solve shares: the part, its problem, the
@@ -295,6 +314,9 @@ struct Eq5Runner {
              const std::vector<IpoptOption>& first_options = {}) {
     DimensionlessEq5 problem(nlp, sigma0);
     if (start != nullptr) problem.set_start(nlp.equilibrium().free_nodes().gather(start->positions), start->forces);
+    if (start != nullptr && start->multipliers != nullptr)
+      problem.set_start_multipliers(start->multipliers->eq5_row_multipliers,
+                                    start->multipliers->eq5_force_bound_multipliers);
     IpoptSettings run_settings = settings;
     run_settings.options.insert(run_settings.options.begin(), IpoptOption{"max_iter", max_iterations});
     run_settings.options.insert(run_settings.options.begin(), first_options.begin(), first_options.end());
@@ -479,7 +501,9 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
       // Away from an optimum (alternating-gn's equilibrium or a projected
       // last iterate) the forces leave the level to the load, as in start=auto.
       const Eigen::VectorXd forces = at_optimum ? optimum.forces : warm_start_forces(optimum);
-      const Eq5Start from{optimum.positions, forces};
+      const SolverDetails* multipliers = at_optimum ? optimum_multipliers(optimum) : nullptr;
+      if (multipliers != nullptr) at_point.insert(at_point.end(), kWarmStartOptions.begin(), kWarmStartOptions.end());
+      const Eq5Start from{optimum.positions, forces, multipliers};
       capped_directly = capped;
       std::optional<MinimalGeometryChangeNlp> capped_nlp;
       if (capped) capped_nlp.emplace(part, scale, PrestressRow::Cap);
