@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -286,6 +287,23 @@ struct Eq5Start {
   const SolverDetails* multipliers = nullptr;
 };
 
+// The forces of a start at the scene, computed when first asked for: a run
+// from another backend's answer does not need them, and under gravity they
+// cost a stress QP at the scene's geometry (on the 10-layer gravity tower a
+// third of a solve from eq5-newton's answer).
+class SceneForces {
+ public:
+  explicit SceneForces(std::function<Eigen::VectorXd()> compute) : compute_(std::move(compute)) {}
+  const Eigen::VectorXd& get() const {
+    if (!forces_) forces_ = compute_();
+    return *forces_;
+  }
+
+ private:
+  std::function<Eigen::VectorXd()> compute_;
+  mutable std::optional<Eigen::VectorXd> forces_;
+};
+
 // What every run of one part solve shares: the part, its problem, the
 // settings and the trace, whose iteration and evaluation counts continue
 // from run to run.
@@ -293,7 +311,7 @@ struct Eq5Runner {
   const Structure& part;
   const SolveOptions& options;
   const ForceScale& scale;
-  const Eigen::VectorXd& sigma0;
+  const SceneForces& sigma0;
   double max_free_weight;
   IpoptSettings settings;  // without max_iter: each run sets its own
   TraceRecorder& recorder;
@@ -312,7 +330,7 @@ struct Eq5Runner {
   Eq5Run run(MinimalGeometryChangeNlp& nlp, const Eq5Start* start, int max_iterations, bool record_first,
              double stop_at_seconds = std::numeric_limits<double>::infinity(),
              const std::vector<IpoptOption>& first_options = {}) {
-    DimensionlessEq5 problem(nlp, sigma0);
+    DimensionlessEq5 problem(nlp, start != nullptr ? start->forces : sigma0.get());
     if (start != nullptr) problem.set_start(nlp.equilibrium().free_nodes().gather(start->positions), start->forces);
     if (start != nullptr && start->multipliers != nullptr)
       problem.set_start_multipliers(start->multipliers->eq5_row_multipliers,
@@ -354,7 +372,7 @@ struct Eq5Runner {
       r.cable_sum_multiplier = problem.cable_sum_multiplier();
     } else {
       r.positions = start != nullptr ? start->positions : part.positions;
-      r.forces = start != nullptr ? start->forces : sigma0;
+      r.forces = start != nullptr ? start->forces : sigma0.get();
     }
     r.check = verify(part, r.positions, r.forces, options.tolerance);
     if (r.status == Status::Converged && !r.check.ok && r.check.all_finite && r.check.wrong_signs == 0 &&
@@ -430,11 +448,12 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   // The start's forces satisfy the problem's own prestress row; without
   // gravity the driver's stress QP at this geometry already does.
   const bool held_start = scale.has_prestress_cap();
-  const Eigen::VectorXd sigma0 =
-      !held_start && part_problem.initial_forces.size() == part.num_elements() &&
-              part_problem.initial_forces.allFinite()
-          ? part_problem.initial_forces
-          : eq5_start_forces(part, part.positions, scale, Eigen::VectorXd(), reference_forces(part, scale));
+  const SceneForces sigma0([&] {
+    return !held_start && part_problem.initial_forces.size() == part.num_elements() &&
+                   part_problem.initial_forces.allFinite()
+               ? part_problem.initial_forces
+               : eq5_start_forces(part, part.positions, scale, Eigen::VectorXd(), reference_forces(part, scale));
+  });
 
   // Ipopt's constraint violation is the max-norm of f / F0; docs/FORMATS.md asks
   // |f_i| <= tolerance * load scale, where the load scale is the largest
@@ -648,7 +667,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   if (!v.all_finite) {
     result.status = Status::NumericalError;
     result.positions = part.positions;
-    result.forces = sigma0;
+    result.forces = sigma0.get();
     v = verify(part, result.positions, result.forces, options.tolerance);
   }
   result.stats.seconds = recorder.seconds();
