@@ -8,7 +8,8 @@
 // reference force), so its tolerances mean the same at every scene scale.
 // Starting point (option `start`): `eq5-newton` (the default), the eq5-newton
 // backend's answer (at a local optimum the point itself, with a barrier of its
-// order), then, while no run gives a verified answer, alternating-gn's
+// order, and where eq5-newton's KKT test passed its multipliers too), then,
+// while no run gives a verified answer, alternating-gn's
 // equilibrium and the scene; `scene`, the
 // scene geometry with the stress QP's forces; `alternating-gn`, the
 // equilibrium that alternating-gn reaches from the scene (the scene again when
@@ -52,7 +53,8 @@ namespace tensegrity {
 // equilibrium, then (unless the first answer is the scene to round-off) from
 // the scene with an iteration budget of a few times the first run's, and keeps
 // the closer verified answer. `Eq5Newton` starts at eq5-newton's local
-// optimum (at the point itself, with a barrier of the optimum's order) and
+// optimum (at the point itself, with a barrier of the optimum's order, from
+// its multipliers where its KKT test passed) and
 // solves the capped problem directly under gravity with prestress=cap; only
 // when that run gives no verified answer does Ipopt run from alternating-gn's
 // equilibrium, and then from the scene.
