@@ -24,7 +24,10 @@
 //      stalled_projected` or `max_iterations_projected`, a closer
 //      equilibrium, not a local optimum); otherwise the answer is
 //      alternating-gn's verified equilibrium, and the details say why the
-//      polish was not kept.
+//      polish was not kept. Where the answer is not a (approximate) local
+//      optimum, the Newton iterate closest to the scene that verifies, of
+//      any polish, replaces it when it is closer (`polish:
+//      closest_iterate`, an equilibrium, not a local optimum).
 //
 // Options (`--option key=value`): newton_iterations (1 .. 100000, default
 // 1000: far from the optimum, on towers without gravity, a polish takes
@@ -66,7 +69,8 @@ struct Eq5NewtonDetails : SolverDetails {
   // "kept": the Newton answer is the result; "objective_stationary": the
   // projected iterate of the stationary stop is; "stalled_projected",
   // "max_iterations_projected": the projected last iterate of a polish that
-  // stalled or spent its budget is; "not_run": alternating-gn
+  // stalled or spent its budget is; "closest_iterate": the closest
+  // verified Newton iterate is; "not_run": alternating-gn
   // did not converge; otherwise the Newton stop that was not kept
   // ("max_iterations", "stalled", "numerical_error", "time_limit",
   // "rejected_by_verification", "farther_than_start": a local optimum no
