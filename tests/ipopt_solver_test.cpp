@@ -503,6 +503,31 @@ TEST(IpoptSolver, Eq5NewtonStartVerifiesTheLargestGravityTower) {
   EXPECT_EQ(details->cold_start_iterations, -1);  // no run from the scene
 }
 
+// Where eq5-newton's answer is its closest verified iterate (the stress
+// test's prism-8 with a length ratio of 1e3), Ipopt starts at
+// alternating-gn's equilibrium instead and ends at the optimum that start=auto
+// finds, not at the farther one Ipopt reaches from the iterate (5.42 m).
+TEST(IpoptSolver, Eq5NewtonStartLeavesAnIntermediateIterate) {
+  constexpr double kAutoChange = 0.0162368;  // start=auto's change (m), measured
+  constexpr double kSameChange = 1e-3;      // relative
+  const Structure s = family_case(
+      read_scene_file(std::string(TENSEGRITY_SOURCE_DIR) + "/data/reference/prism-8.scene.json"), "length-ratio",
+      "1000");
+  const SolveResult newton = make_solver("eq5-newton")->Solve(s, no_shortcut(), DriverControls{false});
+  ASSERT_EQ(newton.status, Status::Converged) << newton.message;
+  ASSERT_NE(newton.message.find("closest verified Newton iterate"), std::string::npos) << newton.message;
+  const SolveResult r = IpoptSolver().Solve(s, no_shortcut(), DriverControls{false});
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  SolveOptions automatic = no_shortcut();
+  automatic.backend_options = {{"start", "auto"}};
+  const SolveResult reference = IpoptSolver().Solve(s, automatic, DriverControls{false});
+  ASSERT_EQ(reference.status, Status::Converged) << reference.message;
+  std::printf("prism-8, length ratio 1e3: default %.9g m, start=auto %.9g m, eq5-newton %.9g m\n",
+              r.stats.geometry_change, reference.stats.geometry_change, newton.stats.geometry_change);
+  EXPECT_NEAR(reference.stats.geometry_change, kAutoChange, kSameChange * kAutoChange);
+  EXPECT_NEAR(r.stats.geometry_change, reference.stats.geometry_change, kSameChange * kAutoChange);
+}
+
 // start=eq5-newton where eq5-newton gives no answer (the stress test's prism-5
 // with two nodes 1e-6 apart, within a small budget): the run from the scene
 // is the answer, with its own status and a finite point, not an empty result.
