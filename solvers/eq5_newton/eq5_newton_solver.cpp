@@ -216,27 +216,36 @@ void keep_residuals(const Eq5NewtonDetails& earlier, Eq5NewtonDetails& details) 
   details.complementarity = earlier.complementarity;
 }
 
-// The closest verified iterate as the answer: an equilibrium closer to the
-// scene than every other candidate, not a local optimum.
-SolveResult closest_iterate_result(const ClosestIterate& closest, const std::string& polish_stop,
-                                   TraceRecorder& recorder, const std::shared_ptr<Eq5NewtonDetails>& details) {
+// A verified Newton answer as the solve's result, with the trace so far.
+SolveResult verified_answer(std::string message, const Eigen::Matrix3Xd& positions, const Eigen::VectorXd& forces,
+                            const Verification& check, TraceRecorder& recorder,
+                            std::shared_ptr<Eq5NewtonDetails> details) {
   SolveResult result;
   result.status = Status::Converged;
-  result.message = "equilibrium closer to the scene than alternating-gn's, not a local optimum of Eq. 5: the "
-                   "closest verified Newton iterate (the polish stopped: " + polish_stop + ") of " +
-                   std::to_string(details->newton_iterations) + " Newton iterations from alternating-gn's "
-                   "equilibrium (" + std::to_string(details->start_iterations) + " iterations)";
-  result.positions = closest.positions;
-  result.forces = closest.forces;
-  recorder.record(trace_point(closest.check, static_cast<int>(recorder.trace().size()), 0.0));
+  result.message = std::move(message);
+  result.positions = positions;
+  result.forces = forces;
   result.trace = std::move(recorder.trace());
   result.stats.iterations = static_cast<int>(result.trace.size()) - 1;
   result.stats.seconds = recorder.seconds();
-  result.stats.residual = closest.check.residual;
-  result.stats.relative_residual = closest.check.relative_residual;
-  result.stats.geometry_change = closest.check.geometry_change;
-  result.details = {details};
+  result.stats.residual = check.residual;
+  result.stats.relative_residual = check.relative_residual;
+  result.stats.geometry_change = check.geometry_change;
+  result.details = {std::move(details)};
   return result;
+}
+
+// The closest verified iterate as the answer: an equilibrium closer to the
+// scene than every other candidate, not a local optimum.
+SolveResult closest_iterate_result(const ClosestIterate& closest, const std::string& polish_stop,
+                                   TraceRecorder& recorder, std::shared_ptr<Eq5NewtonDetails> details) {
+  std::string message = "equilibrium closer to the scene than alternating-gn's, not a local optimum of Eq. 5: the "
+                        "closest verified Newton iterate (the polish stopped: " + polish_stop + ") of " +
+                        std::to_string(details->newton_iterations) + " Newton iterations from alternating-gn's "
+                        "equilibrium (" + std::to_string(details->start_iterations) + " iterations)";
+  recorder.record(trace_point(closest.check, static_cast<int>(recorder.trace().size()), 0.0));
+  return verified_answer(std::move(message), closest.positions, closest.forces, closest.check, recorder,
+                         std::move(details));
 }
 
 }  // namespace
@@ -395,29 +404,18 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   if (run.cap_slack)
     details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
   if (run.outcome.status == Status::Converged) record_multipliers(run, scale.reference_force, *details);
-  SolveResult result;
-  result.status = Status::Converged;
   const char* answer =
       run.last_iterate_projected() ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
       : run.projected              ? "approximate local optimum"
                                    : "local optimum";
-  result.message = std::string(answer) + " of Eq. 5" +
-                   std::string(details->prestress_held ? " held at the prestress cap" : "") +
-                   ": " + run.outcome.message + " after " + std::to_string(details->newton_iterations) +
-                   " Newton iterations from alternating-gn's equilibrium (" +
-                   std::to_string(details->start_iterations) + " iterations)";
-  result.positions = run.positions;
-  result.forces = run.forces;
+  std::string message = std::string(answer) + " of Eq. 5" +
+                        std::string(details->prestress_held ? " held at the prestress cap" : "") + ": " +
+                        run.outcome.message + " after " + std::to_string(details->newton_iterations) +
+                        " Newton iterations from alternating-gn's equilibrium (" +
+                        std::to_string(details->start_iterations) + " iterations)";
   if (static_cast<int>(recorder.trace().size()) == start_records)
     recorder.record(trace_point(run.check, start_records, run.objective));
-  result.trace = std::move(recorder.trace());
-  result.stats.iterations = static_cast<int>(result.trace.size()) - 1;
-  result.stats.seconds = recorder.seconds();
-  result.stats.residual = run.check.residual;
-  result.stats.relative_residual = run.check.relative_residual;
-  result.stats.geometry_change = run.check.geometry_change;
-  result.details = {details};
-  return result;
+  return verified_answer(std::move(message), run.positions, run.forces, run.check, recorder, std::move(details));
 }
 
 std::unique_ptr<Solver> make_eq5_newton_solver() { return std::make_unique<Eq5NewtonSolver>(); }

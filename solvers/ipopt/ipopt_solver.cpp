@@ -555,7 +555,7 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
                        : std::string(" (started from eq5-newton's ") + (at_optimum ? "local optimum" : "equilibrium") +
                              " after " + std::to_string(optimum.stats.iterations) + " iterations)";
       ipopt_iterations = held.iterations;
-      if (!held.ok() && !recorder.out_of_time()) {
+      if (!held.ok() && !recorder.out_of_time() && !from_equilibrium_instead) {
         // No verified answer from eq5-newton's point: before the scene, the
         // equilibrium eq5-newton started from (unless that was the point), as
         // start=alternating-gn (on the stress test's length ratios of 1e4
