@@ -107,25 +107,29 @@ const std::vector<IpoptOption> kWarmStartOptions = {{"warm_start_init_point", st
                                                     {"warm_start_slack_bound_frac", kWarmStartPush},
                                                     {"warm_start_mult_bound_push", kWarmStartPush}};
 
-// Whether eq5-newton's answer is a local optimum of the problem Ipopt solves:
-// its polish kept (or the stationary stop), and with `capped` not the held
-// polish that eq5-newton falls back to, an optimum of the held problem only.
-bool at_local_optimum(const SolveResult& eq5_newton, bool capped) {
-  if (eq5_newton.details.size() != 1 || !eq5_newton.details.front()) return false;
-  const nlohmann::json d = eq5_newton.details.front()->to_json();
-  const auto polish = d.find("polish");
-  if (polish == d.end() || !polish->is_string()) return false;
-  if (capped && d.value("prestress_held", false)) return false;
-  return std::find(std::begin(kPolishKept), std::end(kPolishKept), polish->get<std::string>()) !=
-         std::end(kPolishKept);
-}
+// What eq5-newton's details say about its answer, read once from the
+// solution file's form of them (backends do not include each other).
+struct Eq5NewtonAnswer {
+  std::string polish;  // empty without details
+  bool prestress_held = false;
 
-// Whether eq5-newton's answer is its closest verified iterate: a point on the
-// way of polishes that met no stopping test, not where one ended.
-bool at_intermediate_iterate(const SolveResult& eq5_newton) {
-  if (eq5_newton.details.size() != 1 || !eq5_newton.details.front()) return false;
-  return eq5_newton.details.front()->to_json().value("polish", std::string()) == kPolishClosestIterate;
-}
+  explicit Eq5NewtonAnswer(const SolveResult& eq5_newton) {
+    if (eq5_newton.details.size() != 1 || !eq5_newton.details.front()) return;
+    const nlohmann::json d = eq5_newton.details.front()->to_json();
+    polish = d.value("polish", std::string());
+    prestress_held = d.value("prestress_held", false);
+  }
+  // A local optimum of the problem Ipopt solves: its polish kept (or the
+  // stationary stop), and with `capped` not the held polish that eq5-newton
+  // falls back to, an optimum of the held problem only.
+  bool at_local_optimum(bool capped) const {
+    if (capped && prestress_held) return false;
+    return std::find(std::begin(kPolishKept), std::end(kPolishKept), polish) != std::end(kPolishKept);
+  }
+  // Its closest verified iterate: a point on the way of polishes that met no
+  // stopping test, not where one ended.
+  bool at_intermediate_iterate() const { return polish == kPolishClosestIterate; }
+};
 
 // eq5-newton's multipliers at its answer, where it has them for the part.
 const SolverDetails* optimum_multipliers(const SolveResult& eq5_newton) {
@@ -526,9 +530,10 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
     const bool have_optimum = optimum.positions.cols() == part.num_nodes();
     if (have_optimum) {
       for (const TracePoint& p : optimum.trace) recorder.record(p);
-      const bool at_optimum = at_local_optimum(optimum, capped);
+      const Eq5NewtonAnswer answer(optimum);
+      const bool at_optimum = answer.at_local_optimum(capped);
       SolveResult equilibrium_instead;
-      if (at_intermediate_iterate(optimum)) equilibrium_instead = backend_start(part, options, "alternating-gn");
+      if (answer.at_intermediate_iterate()) equilibrium_instead = backend_start(part, options, "alternating-gn");
       const bool from_equilibrium_instead = equilibrium_instead.positions.cols() == part.num_nodes();
       const SolveResult& point = from_equilibrium_instead ? equilibrium_instead : optimum;
       std::vector<IpoptOption> at_point;

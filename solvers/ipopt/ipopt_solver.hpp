@@ -8,8 +8,9 @@
 // reference force), so its tolerances mean the same at every scene scale.
 // Starting point (option `start`): `eq5-newton` (the default), the eq5-newton
 // backend's answer (at a local optimum the point itself, with a barrier of its
-// order, and where eq5-newton's KKT test passed its multipliers too), then,
-// while no run gives a verified answer, alternating-gn's
+// order, and where eq5-newton's KKT test passed its multipliers too; where
+// that answer is eq5-newton's closest verified iterate, alternating-gn's
+// equilibrium instead), then, while no run gives a verified answer, alternating-gn's
 // equilibrium and the scene; `scene`, the
 // scene geometry with the stress QP's forces; `alternating-gn`, the
 // equilibrium that alternating-gn reaches from the scene (the scene again when
