@@ -458,6 +458,7 @@ StressQpResult StressQp::report(SolveState& st) {
                                       : "a factorization failed or a value was not finite";
   } else if (st.gave_up) {
     result.status = StressQpStatus::IterationLimit;
+    result.gave_up = true;
     result.message = "gave up after " + std::to_string(st.iterations) + " steps at relative residual " +
                      message_number(q.relative_residual(st, q.s)) + " (above " + message_number(options_.give_up_residual) + ")";
   } else if (result.kkt_error > st.tolerance) {

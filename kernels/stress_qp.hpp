@@ -145,6 +145,9 @@ struct StressQpResult {
   // Otherwise 0, which bounds any objective.
   double objective_lower_bound = 0.0;
   bool optimal = false;           // status == Optimal
+  // Stopped at give_up_after (status IterationLimit): the forces are an
+  // unfinished QP's, a few steps past its interior-point phase.
+  bool gave_up = false;
 };
 
 class StressQp {

@@ -16,6 +16,7 @@
 #include "model/errors.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
+#include "solvers/standing_check.hpp"
 #include "solvers/trace_recorder.hpp"
 
 namespace tensegrity {
@@ -33,14 +34,19 @@ constexpr double kPolishToOptimumBelow = 1e-3;
 // the as-generated towers at 2.8e-4 to 4.7e-4, where Ipopt would only cost
 // time (20 s of the 160-layer tower's solve).
 constexpr double kIpoptInCheckBelow = 1e-4;
-// The driver's check gives up on a scene whose stress QP still leaves a
-// relative residual above kCheckGivesUpAbove after kCheckGivesUpAfter steps
-// (ten past the QP's interior-point phase, where the characters and the
-// towers that stand are below 1e-4): such a scene is to be solved, and the
-// rest of the QP, for forces that are only the backend's start, costs more
-// than the backend (on the 160-layer gravity tower with 1 % node noise about
-// 1.4 s, where alternating-gn needs 0.08 s).
-constexpr int kCheckGivesUpAfter = 30;
+// The driver's check starts with the stress QP's interior-point phase
+// instead of reaching it after the default 20 projected-Newton steps: from a
+// cold start those steps change the active set a few forces at a time, and
+// the phase is what finds the optimum's neighbourhood (the characters and the
+// stored towers that stand then settle within 3 steps, against 21 to 23). It
+// gives up on a scene whose stress QP still leaves a relative residual above
+// kCheckGivesUpAbove kCheckGivesUpAfter steps past the phase: such a scene is
+// to be solved, and the rest of the QP, for forces that are only the
+// backend's start, costs more than the backend. Not at the phase's own point:
+// its crossover guesses the active set, and on the gravity prisms with 0.1 %
+// node noise, which stand, it is still above 1e-2 there.
+constexpr int kCheckInteriorPointAfter = 0;
+constexpr int kCheckGivesUpAfter = 5;
 constexpr double kCheckGivesUpAbove = 1e-2;
 // Projected-Newton steps of `forces`, whose answer is the point of the run:
 // on the equilibria of large near-mechanisms (the 40-layer tower without
@@ -110,8 +116,10 @@ enum class FixedGeometryEffort {
 // Infeasible when the QP's optimum leaves a residual (a proof at this
 // geometry), MaxIterations when the QP spent its step cap or gave up,
 // Stalled when it stopped short of a certified optimum otherwise.
+// `gave_up`, if given, says whether the check gave up (give_up_after).
 SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& options,
-                                   FixedGeometryEffort effort = FixedGeometryEffort::Check) {
+                                   FixedGeometryEffort effort = FixedGeometryEffort::Check,
+                                   bool* gave_up = nullptr) {
   const auto t0 = Clock::now();
   const ForceScale scale = make_force_scale(part, options.margin_fraction);
   Equilibrium eq(part);
@@ -121,11 +129,11 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   if (effort == FixedGeometryEffort::Command) {
     qp_options.max_iterations = kForcesCommandIterations;
   } else {
-    qp_options.give_up_after = kCheckGivesUpAfter;
-    qp_options.give_up_residual = kCheckGivesUpAbove;
+    qp_options = standing_check_qp_options();
   }
   StressQp qp(eq, scale, qp_options);
   StressQpResult qr = qp.solve();
+  if (gave_up) *gave_up = qr.gave_up;
   Verification v = verify(part, part.positions, qr.sigma, options.tolerance);
   const bool near_equilibrium =
       !v.ok && v.relative_residual <= kPolishToOptimumBelow && qr.status != StressQpStatus::NumericalFailure;
@@ -329,6 +337,15 @@ void Solver::ValidateOptions(const SolveOptions& options) const {
   ParseOptions(options.backend_options);
 }
 
+StressQpOptions standing_check_qp_options() {
+  StressQpOptions o;
+  o.certify_optimum = true;  // a claim of infeasibility needs the proof
+  o.interior_point_after = kCheckInteriorPointAfter;
+  o.give_up_after = kCheckGivesUpAfter;
+  o.give_up_residual = kCheckGivesUpAbove;
+  return o;
+}
+
 SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, const DriverControls& controls) const {
   validate_settings(options);
   const std::shared_ptr<const void> parsed = ParseOptions(options.backend_options);
@@ -347,7 +364,8 @@ SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, c
     SolveOptions backend_options = part_options;
     if (controls.skip_if_in_equilibrium) {
       const Clock::time_point checked = Clock::now();
-      SolveResult shortcut = forces_at_own_geometry(part, part_options, FixedGeometryEffort::Check);
+      bool gave_up = false;
+      SolveResult shortcut = forces_at_own_geometry(part, part_options, FixedGeometryEffort::Check, &gave_up);
       if (shortcut.status == Status::Converged) return shortcut;
       // The check's time counts against the part's limit.
       backend_options.time_limit_s -= seconds_since(checked);
@@ -356,7 +374,9 @@ SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, c
         shortcut.message = "time budget spent checking whether the scene already stands";
         return shortcut;
       }
-      if (shortcut.forces.size() == part.num_elements() && shortcut.forces.allFinite())
+      // Forces of a QP given up a few steps past its interior-point phase are
+      // no start: the backend finds its own, as with --no-skip.
+      if (!gave_up && shortcut.forces.size() == part.num_elements() && shortcut.forces.allFinite())
         initial_forces = std::move(shortcut.forces);
     }
     return DoSolve(PartProblem{part, backend_options, initial_forces}, parsed.get());

@@ -22,6 +22,7 @@
 #include "model/reference_scenes.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
+#include "solvers/standing_check.hpp"
 
 namespace tensegrity {
 namespace {
@@ -649,12 +650,12 @@ TEST(StressQp, GivesUpFarFromATensegrityOnlyAboveTheResidualAsked) {
   EXPECT_GT(residual_of(plain.sigma), early.give_up_residual);  // giving up was a right call
 }
 
-// The driver's check (give up after 30 steps above the default 1e-2) leaves a
-// scene that stands untouched: the 10-layer 8-strut tower's equilibrium
-// without gravity, a near-mechanism on which the QP runs to its step cap,
-// gets the same forces, bit for bit, as without the option.
+// The driver's check (its interior-point phase first, then a give-up above
+// 1e-2) leaves a scene that stands untouched: the 10-layer 8-strut tower's
+// equilibrium without gravity, a near-mechanism on which the QP runs to its
+// step cap, gets the same forces, bit for bit, as the same QP without the
+// give-up.
 TEST(StressQp, GivingUpLeavesAStandingTowerUntouched) {
-  constexpr int kDriverGivesUpAfter = 30;
   scenes::TowerParameters p;
   p.layers = 10;
   p.cables = 50 * p.layers;
@@ -664,19 +665,65 @@ TEST(StressQp, GivingUpLeavesAStandingTowerUntouched) {
   s.positions = standing.positions;
   Equilibrium eq(s);
   const ForceScale scale = make_force_scale(s);
-  StressQpOptions check;
-  check.give_up_after = kDriverGivesUpAfter;
-  check.certify_optimum = true;
-  StressQpOptions plain;
-  plain.certify_optimum = true;
+  const StressQpOptions check = standing_check_qp_options();
+  StressQpOptions plain = check;
+  plain.give_up_after = -1;
   const StressQpResult checked = StressQp(eq, scale, check).solve();
   const StressQpResult full = StressQp(eq, scale, plain).solve();
-  EXPECT_GT(full.iterations, kDriverGivesUpAfter);  // the case this test is about
+  EXPECT_GT(full.iterations, check.give_up_after);  // the case this test is about
   EXPECT_EQ(checked.status, full.status) << checked.message;
   EXPECT_EQ(checked.message, full.message);
   EXPECT_EQ(checked.iterations, full.iterations);
   EXPECT_EQ((checked.sigma - full.sigma).lpNorm<Eigen::Infinity>(), 0.0);
   EXPECT_LE(relative_residual(s, s.positions, checked.sigma), 1e-4);
+}
+
+// The check gives up on a scene to be solved a few steps past its
+// interior-point phase, above the residual it asks, where the whole QP
+// confirms that the scene does not stand: the 40-layer gravity tower with
+// 1 % node noise.
+TEST(StressQp, TheDriversCheckGivesUpOnANoisyTower) {
+  constexpr int kLayers = 40;
+  const Structure s = testing::gravity_tower_at_equilibrium(kLayers);  // 1 % node noise
+  Equilibrium eq(s);
+  const ForceScale scale = make_force_scale(s);
+  constexpr double kTolerance = 1e-8;
+  const StressQpOptions check = standing_check_qp_options();
+  EXPECT_EQ(check.interior_point_after, 0);
+  const StressQpResult given_up = StressQp(eq, scale, check).solve();
+  EXPECT_EQ(given_up.status, StressQpStatus::IterationLimit) << given_up.message;
+  EXPECT_EQ(given_up.iterations, check.give_up_after);
+  EXPECT_GT(verify(s, s.positions, given_up.sigma, kTolerance).relative_residual, check.give_up_residual);
+  StressQpOptions whole = check;
+  whole.give_up_after = -1;
+  const StressQpResult full = StressQp(eq, scale, whole).solve();
+  EXPECT_GT(full.iterations, check.give_up_after);
+  EXPECT_GT(verify(s, s.positions, full.sigma, kTolerance).relative_residual, check.give_up_residual);
+}
+
+// A check that gives up hands the backend no forces: its answer is the one it
+// gives without the check (DriverControls{false}), bit for bit, and not one
+// that depends on where the unfinished QP stopped. The faithful scheme and
+// nlopt start from given forces, so a budget of iterations (not of time)
+// keeps their runs comparable.
+TEST(StressQp, AfterTheChecksGiveUpTheBackendsAnswerIsItsOwn) {
+  constexpr int kLayers = 40;
+  constexpr int kIterations = 20;
+  const Structure s = testing::gravity_tower_at_equilibrium(kLayers);  // 1 % node noise
+  Equilibrium eq(s);
+  const StressQpResult check = StressQp(eq, make_force_scale(s), standing_check_qp_options()).solve();
+  ASSERT_TRUE(check.gave_up) << check.message;  // the case this test is about
+  for (const char* backend : {"alternating", "nlopt", "alternating-gn", "eq5-newton"}) {
+    const auto solver = make_solver(backend);
+    SolveOptions options;
+    options.max_iterations = kIterations;
+    const SolveResult checked = solver->Solve(s, options);
+    const SolveResult alone = solver->Solve(s, options, DriverControls{false});
+    EXPECT_EQ(checked.status, alone.status) << backend << ": " << checked.message;
+    EXPECT_GT(checked.stats.geometry_change, 0.0) << backend;  // solved, not returned as it stands
+    EXPECT_EQ((checked.positions - alone.positions).lpNorm<Eigen::Infinity>(), 0.0) << backend;
+    EXPECT_EQ((checked.forces - alone.forces).lpNorm<Eigen::Infinity>(), 0.0) << backend;
+  }
 }
 
 TEST(StressQp, FailuresAreReportedNotThrown) {
