@@ -29,7 +29,8 @@ constexpr int kForcesPolishSteps = 2000;
 // and `forces` asks Ipopt first (kernels/stress_qp_ipopt.hpp).
 constexpr double kPolishToOptimumBelow = 1e-3;
 // Below this the driver's check whether a scene already stands asks Ipopt
-// too. Within the check's 100 steps the stress QP leaves the towers'
+// too. Started the QP's default way (its interior-point phase after 20
+// steps), within the check's 100 steps the stress QP leaves the towers'
 // equilibria of `generate tower` (10 to 160 layers) at 1.6e-6 to 5.7e-6 and
 // the as-generated towers at 2.8e-4 to 4.7e-4, where Ipopt would only cost
 // time (20 s of the 160-layer tower's solve).
