@@ -708,7 +708,7 @@ TEST(StressQp, TheDriversCheckGivesUpOnANoisyTower) {
 // keeps their runs comparable.
 TEST(StressQp, AfterTheChecksGiveUpTheBackendsAnswerIsItsOwn) {
   constexpr int kLayers = 40;
-  constexpr int kIterations = 20;
+  constexpr int kIterations = 5;
   const Structure s = testing::gravity_tower_at_equilibrium(kLayers);  // 1 % node noise
   Equilibrium eq(s);
   const StressQpResult check = StressQp(eq, make_force_scale(s), standing_check_qp_options()).solve();
@@ -720,7 +720,7 @@ TEST(StressQp, AfterTheChecksGiveUpTheBackendsAnswerIsItsOwn) {
     const SolveResult checked = solver->Solve(s, options);
     const SolveResult alone = solver->Solve(s, options, DriverControls{false});
     EXPECT_EQ(checked.status, alone.status) << backend << ": " << checked.message;
-    EXPECT_GT(checked.stats.geometry_change, 0.0) << backend;  // solved, not returned as it stands
+    EXPECT_EQ(checked.message.find("already in equilibrium"), std::string::npos) << backend;  // not the shortcut
     EXPECT_EQ((checked.positions - alone.positions).lpNorm<Eigen::Infinity>(), 0.0) << backend;
     EXPECT_EQ((checked.forces - alone.forces).lpNorm<Eigen::Infinity>(), 0.0) << backend;
   }
