@@ -126,11 +126,11 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   Equilibrium eq(part);
   eq.set_positions(part.positions);
   StressQpOptions qp_options;
-  qp_options.certify_optimum = true;  // a claim of infeasibility needs the proof
   if (effort == FixedGeometryEffort::Command) {
+    qp_options.certify_optimum = true;  // a claim of infeasibility needs the proof
     qp_options.max_iterations = kForcesCommandIterations;
   } else {
-    qp_options = standing_check_qp_options();
+    qp_options = standing_check_qp_options();  // certifies too
   }
   StressQp qp(eq, scale, qp_options);
   StressQpResult qr = qp.solve();
