@@ -347,6 +347,14 @@ StressQpOptions standing_check_qp_options() {
   return o;
 }
 
+Eigen::VectorXd standing_check_forces(const Structure& part, const SolveOptions& options) {
+  bool gave_up = false;
+  SolveResult checked = forces_at_own_geometry(part, options, FixedGeometryEffort::Check, &gave_up);
+  if (gave_up || checked.forces.size() != part.num_elements() || !checked.forces.allFinite())
+    return Eigen::VectorXd();
+  return std::move(checked.forces);
+}
+
 SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, const DriverControls& controls) const {
   validate_settings(options);
   const std::shared_ptr<const void> parsed = ParseOptions(options.backend_options);
@@ -361,26 +369,22 @@ SolveResult Solver::Solve(const Structure& scene, const SolveOptions& options, c
     if (unsupported_weight(part))
       return unchanged_part(part, reference_forces(part, make_force_scale(part, part_options.margin_fraction)),
                             Status::Infeasible, "gravity acts on a part without fixed nodes: no equilibrium exists");
-    Eigen::VectorXd initial_forces;
     SolveOptions backend_options = part_options;
     if (controls.skip_if_in_equilibrium) {
       const Clock::time_point checked = Clock::now();
-      bool gave_up = false;
-      SolveResult shortcut = forces_at_own_geometry(part, part_options, FixedGeometryEffort::Check, &gave_up);
+      SolveResult shortcut = forces_at_own_geometry(part, part_options, FixedGeometryEffort::Check);
       if (shortcut.status == Status::Converged) return shortcut;
-      // The check's time counts against the part's limit.
+      // The check's time counts against the part's limit. Its forces are no
+      // start: the backend finds its own, so that its answer is the one it
+      // gives with --no-skip (ipopt's may be the check's, computed again).
       backend_options.time_limit_s -= seconds_since(checked);
       if (!(backend_options.time_limit_s > 0.0)) {
         shortcut.status = Status::TimeLimit;
         shortcut.message = "time budget spent checking whether the scene already stands";
         return shortcut;
       }
-      // Forces of a QP given up a few steps past its interior-point phase are
-      // no start: the backend finds its own, as with --no-skip.
-      if (!gave_up && shortcut.forces.size() == part.num_elements() && shortcut.forces.allFinite())
-        initial_forces = std::move(shortcut.forces);
     }
-    return DoSolve(PartProblem{part, backend_options, initial_forces}, parsed.get());
+    return DoSolve(PartProblem{part, backend_options}, parsed.get());
   };
   return solve_by_parts(scene, options, solve_part, on_iteration);
 }

@@ -134,12 +134,11 @@ class Solver {
   void ValidateOptions(const SolveOptions& options) const;
 
  protected:
-  // One connected part, its settings and the driver's stress-QP forces at the
-  // part's input geometry (empty when the driver did not solve it).
+  // One connected part and its settings. The driver's check whether the part
+  // already stands hands nothing on: a backend's answer does not depend on it.
   struct PartProblem {
     const Structure& part;
     const SolveOptions& options;
-    const Eigen::VectorXd& initial_forces;  // N
   };
 
   // The backend's options, parsed from key=value pairs and validated

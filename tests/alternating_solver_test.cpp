@@ -461,13 +461,13 @@ TEST(AlternatingSolver, DefaultIterationBudgetIsTheFaithfulSchemesOwn) {
   options.tolerance = 1e-300;
   AlternatingOptions never_stalls;
   never_stalls.epsilon_cvg = 0.0;
-  const SolveResult r = solve_faithful_part(prism(4, 0.0, false), options, Eigen::VectorXd(), never_stalls);
+  const SolveResult r = solve_faithful_part(prism(4, 0.0, false), options, never_stalls);
   EXPECT_EQ(r.status, Status::MaxIterations) << r.message;
   EXPECT_EQ(r.stats.iterations, kFaithfulIterationBudget);
   EXPECT_GT(kFaithfulIterationBudget, kDefaultIterationBudget);
   options.max_iterations = 3;
   EXPECT_EQ(options.iteration_budget(kDefaultIterationBudget), 3);
-  EXPECT_EQ(solve_faithful_part(prism(4, 0.0, false), options, Eigen::VectorXd(), never_stalls).stats.iterations, 3);
+  EXPECT_EQ(solve_faithful_part(prism(4, 0.0, false), options, never_stalls).stats.iterations, 3);
 }
 
 TEST(AlternatingSolver, BackendOptionsAreParsedAndChecked) {

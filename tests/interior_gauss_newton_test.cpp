@@ -135,7 +135,7 @@ TEST(InteriorGaussNewton, TowerConvergesCloserThanItsPerturbation) {
     SCOPED_TRACE(gravity ? "gravity tower" : "tower");
     const Structure equilibrium = scenes::tower_equilibrium(data, gravity);
     const Structure scene = scenes::perturbed_tower(data, gravity);
-    const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), InteriorGaussNewtonOptions{});
+    const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, InteriorGaussNewtonOptions{});
     ASSERT_EQ(r.status, Status::Converged) << r.message;
     // Called without the scene driver, so nothing else has verified the claim.
     const Verification v = verify(scene, r.positions, r.forces, 1e-8);
@@ -156,7 +156,7 @@ TEST(InteriorGaussNewton, SceneInEquilibriumKeepsItsGeometry) {
   PrismParameters p;
   p.n = 5;
   const Structure prism = make_regular_prism(p);
-  const SolveResult r = solve_interior_gauss_newton(prism, SolveOptions{}, Eigen::VectorXd(), InteriorGaussNewtonOptions{});
+  const SolveResult r = solve_interior_gauss_newton(prism, SolveOptions{}, InteriorGaussNewtonOptions{});
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_EQ(r.stats.geometry_change, 0.0);
   EXPECT_EQ(r.stats.iterations, 0);
@@ -168,7 +168,7 @@ TEST(InteriorGaussNewton, BudgetIsAStatusNotAnAnswer) {
   const Structure scene = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
   InteriorGaussNewtonOptions o;
   o.max_iterations = 3;
-  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), o);
+  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, o);
   EXPECT_EQ(r.status, Status::MaxIterations);
   EXPECT_EQ(r.stats.iterations, 3);
   EXPECT_GT(r.stats.relative_residual, 1e-8);
@@ -179,7 +179,7 @@ TEST(InteriorGaussNewton, BudgetIsAStatusNotAnAnswer) {
 // converge on the perturbed tower, inside the bounds.
 TEST(InteriorGaussNewton, PatientAttemptConvergesOnTheTower) {
   const Structure scene = scenes::perturbed_tower(std::string(TENSEGRITY_SOURCE_DIR) + "/data", false);
-  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), patient_interior_options());
+  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, patient_interior_options());
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_TRUE(verify(scene, r.positions, r.forces, 1e-8).ok);
   expect_interior_and_monotone(scene, r);
@@ -192,7 +192,7 @@ TEST(InteriorGaussNewton, ProgressTestEndsAnAttemptAsStalled) {
   InteriorGaussNewtonOptions o = patient_interior_options();
   o.progress_window = 2;
   o.progress_ratio = 1e-12;  // no two steps cut the residual this much
-  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, Eigen::VectorXd(), o);
+  const SolveResult r = solve_interior_gauss_newton(scene, SolveOptions{}, o);
   EXPECT_EQ(r.status, Status::Stalled) << r.message;
   EXPECT_EQ(r.stats.iterations, 2);
   EXPECT_NE(r.message.find("over 2 interior steps"), std::string::npos) << r.message;

@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <limits>
 #include <random>
 #include <string>
@@ -701,19 +702,13 @@ TEST(StressQp, TheDriversCheckGivesUpOnANoisyTower) {
   EXPECT_GT(verify(s, s.positions, full.sigma, kTolerance).relative_residual, check.give_up_residual);
 }
 
-// A check that gives up hands the backend no forces: its answer is the one it
-// gives without the check (DriverControls{false}), bit for bit, and not one
-// that depends on where the unfinished QP stopped. The faithful scheme and
-// nlopt start from given forces, so a budget of iterations (not of time)
-// keeps their runs comparable.
-TEST(StressQp, AfterTheChecksGiveUpTheBackendsAnswerIsItsOwn) {
-  constexpr int kLayers = 40;
+// The driver's check hands the backend nothing, whether it gave up or ran to
+// its end: the backend's answer is the one it gives without the check
+// (DriverControls{false}), bit for bit. Budgets of iterations (not of time)
+// keep the runs comparable.
+void expect_answers_without_the_check(const Structure& s, std::initializer_list<const char*> backends) {
   constexpr int kIterations = 5;
-  const Structure s = testing::gravity_tower_at_equilibrium(kLayers);  // 1 % node noise
-  Equilibrium eq(s);
-  const StressQpResult check = StressQp(eq, make_force_scale(s), standing_check_qp_options()).solve();
-  ASSERT_TRUE(check.gave_up) << check.message;  // the case this test is about
-  for (const char* backend : {"alternating", "nlopt", "alternating-gn", "eq5-newton"}) {
+  for (const char* backend : backends) {
     const auto solver = make_solver(backend);
     SolveOptions options;
     options.max_iterations = kIterations;
@@ -724,6 +719,36 @@ TEST(StressQp, AfterTheChecksGiveUpTheBackendsAnswerIsItsOwn) {
     EXPECT_EQ((checked.positions - alone.positions).lpNorm<Eigen::Infinity>(), 0.0) << backend;
     EXPECT_EQ((checked.forces - alone.forces).lpNorm<Eigen::Infinity>(), 0.0) << backend;
   }
+}
+
+// A prism a little off its equilibrium, where the check's QP finishes.
+constexpr int kFinishedCheckPrismStruts = 8;
+constexpr double kFinishedCheckNoise = 0.003;  // of the median element length
+constexpr unsigned kFinishedCheckSeed = 5u;
+
+TEST(StressQp, AfterTheChecksGiveUpTheBackendsAnswerIsItsOwn) {
+  constexpr int kLayers = 40;
+  const Structure s = testing::gravity_tower_at_equilibrium(kLayers);  // 1 % node noise
+  Equilibrium eq(s);
+  const StressQpResult check = StressQp(eq, make_force_scale(s), standing_check_qp_options()).solve();
+  ASSERT_TRUE(check.gave_up) << check.message;  // the case this test is about
+  expect_answers_without_the_check(s, {"alternating", "nlopt", "alternating-gn", "eq5-newton"});
+}
+
+// A check that runs to its end near a tensegrity: its optimal forces are a
+// start as good as any, yet each backend's own start decides its basin.
+TEST(StressQp, AfterAFinishedCheckTheBackendsAnswerIsItsOwn) {
+  PrismParameters p;
+  p.n = kFinishedCheckPrismStruts;
+  scenes::NodeNoise noise;
+  noise.fraction = kFinishedCheckNoise;
+  const Structure s = scenes::with_node_noise(make_regular_prism(p), noise, kFinishedCheckSeed);
+  Equilibrium eq(s);
+  const StressQpResult check = StressQp(eq, make_force_scale(s), standing_check_qp_options()).solve();
+  ASSERT_FALSE(check.gave_up) << check.message;  // the case this test is about
+  ASSERT_EQ(check.status, StressQpStatus::Optimal) << check.message;
+  ASSERT_GT(verify(s, s.positions, check.sigma, SolveOptions{}.tolerance).relative_residual, SolveOptions{}.tolerance);
+  expect_answers_without_the_check(s, {"alternating", "nlopt", "alternating-gn", "eq5-newton", "ipopt"});
 }
 
 TEST(StressQp, FailuresAreReportedNotThrown) {

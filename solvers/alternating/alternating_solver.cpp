@@ -64,11 +64,10 @@ class PartSolve {
  public:
   // hold_prestress_cap: under gravity, the cable sum is held at the prestress
   // cap (held_at_prestress_cap) instead of left free.
-  PartSolve(const Structure& part, const SolveOptions& options, const Eigen::VectorXd& initial_forces,
-            const AlternatingOptions& alt, bool gauss_newton, bool hold_prestress_cap)
+  PartSolve(const Structure& part, const SolveOptions& options, const AlternatingOptions& alt, bool gauss_newton,
+            bool hold_prestress_cap)
       : part_(part),
         options_(options),
-        initial_forces_(initial_forces),
         alt_(alt),
         gauss_newton_(gauss_newton),
         iteration_budget_(options.iteration_budget(gauss_newton ? kDefaultIterationBudget
@@ -155,7 +154,6 @@ class PartSolve {
 
   const Structure& part_;
   const SolveOptions& options_;
-  const Eigen::VectorXd& initial_forces_;  // N; empty: none
   const AlternatingOptions& alt_;
   bool gauss_newton_;
   int iteration_budget_;  // outer iterations
@@ -428,11 +426,7 @@ SolveResult PartSolve::finish(Status status, std::string message) {
 SolveResult PartSolve::run() {
   // Line 2 of the first iteration: the stress solve at the input geometry.
   {
-    // Warm from the driver's forces at this geometry when it has them (this
-    // backend's own mu and margin may differ, so the QP still runs).
-    const StressQpResult r = initial_forces_.size() == eq_.num_elements()
-                                 ? qp_.solve(initial_forces_)
-                                 : qp_.solve();
+    const StressQpResult r = qp_.solve();
     ++evaluations_;
     count_stress_solve(r);
     sigma_ = r.sigma;
@@ -511,14 +505,14 @@ constexpr std::array<RestartScaling, 1 + kMaxRestarts> kRestartSchedule = {{
 }  // namespace
 
 SolveResult solve_faithful_part(const Structure& part, const SolveOptions& options,
-                                const Eigen::VectorXd& initial_forces, const AlternatingOptions& alternating) {
-  PartSolve solve(part, options, initial_forces, alternating, false, false);
+                                const AlternatingOptions& alternating) {
+  PartSolve solve(part, options, alternating, false, false);
   SolveResult r = solve.run();
   AlternatingDetails details = solve.details();
   if (exceeds_cap(part, options, alternating.margin, r)) {
     const SolveOptions rest = remaining_budget(options, r.stats.seconds, r.stats.iterations, kFaithfulIterationBudget);
     if (rest.time_limit_s > 0.0 && rest.max_iterations > 0) {
-      PartSolve held(part, rest, initial_forces, alternating, false, true);
+      PartSolve held(part, rest, alternating, false, true);
       SolveResult h = held.run();
       const double offset = r.stats.seconds;
       for (TracePoint& p : h.trace) p.seconds += offset;
@@ -538,7 +532,7 @@ SolveResult solve_faithful_part(const Structure& part, const SolveOptions& optio
 }
 
 SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& options,
-                                    const Eigen::VectorXd& initial_forces, const AlternatingOptions& alternating) {
+                                    const AlternatingOptions& alternating) {
   // Restarts from the input geometry with other step weights (kRestartSchedule)
   // when a run stalls. The trace is the successful (or last) run's, its times
   // counted from the start of the first run. The interior attempt goes first:
@@ -552,7 +546,7 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
   AlternatingDetails details;
   details.gauss_newton = true;
   if (alternating.interior.max_iterations > 0) {
-    best = solve_interior_gauss_newton(part, options, initial_forces, alternating.interior);
+    best = solve_interior_gauss_newton(part, options, alternating.interior);
     details.interior_iterations = best.stats.iterations;
     iterations += best.stats.iterations;
     if (best.status == Status::Converged && !exceeds_cap(part, options, alternating.margin, best)) {
@@ -566,7 +560,7 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
     const SolveOptions so = remaining_budget(options, elapsed(), iterations, kDefaultIterationBudget);
     if (so.time_limit_s > 0.0 && so.max_iterations > 0) {
       const double offset = elapsed();
-      SolveResult retry = solve_interior_gauss_newton(part, so, initial_forces, alternating.interior_retry);
+      SolveResult retry = solve_interior_gauss_newton(part, so, alternating.interior_retry);
       for (TracePoint& p : retry.trace) p.seconds += offset;
       details.interior_iterations += retry.stats.iterations;
       iterations += retry.stats.iterations;
@@ -595,7 +589,7 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
       // The remainder must stay positive: 0 would mean "the default budget".
       if ((a > 0 || iterations > 0) && (so.time_limit_s <= 0.0 || so.max_iterations <= 0)) break;
       const double offset = elapsed();
-      PartSolve solve(part, so, initial_forces, o, true, hold_cap);
+      PartSolve solve(part, so, o, true, hold_cap);
       SolveResult r = solve.run();
       iterations += r.stats.iterations;
       details.add_run(solve.details(), a > 0);
@@ -628,12 +622,12 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
 }
 
 SolveResult AlternatingSolver::DoSolve(const PartProblem& problem, const FaithfulAlternatingOptions& options) const {
-  return solve_faithful_part(problem.part, problem.options, problem.initial_forces, options);
+  return solve_faithful_part(problem.part, problem.options, options);
 }
 
 SolveResult AlternatingGnSolver::DoSolve(const PartProblem& problem,
                                          const GaussNewtonAlternatingOptions& options) const {
-  return solve_gauss_newton_part(problem.part, problem.options, problem.initial_forces, options);
+  return solve_gauss_newton_part(problem.part, problem.options, options);
 }
 
 std::unique_ptr<Solver> make_alternating_solver() { return std::make_unique<AlternatingSolver>(); }

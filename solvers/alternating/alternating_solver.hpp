@@ -167,9 +167,9 @@ class AlternatingGnSolver : public SolverWithOptions<GaussNewtonAlternatingOptio
 // One part with parsed options, for tests and benchmarks that sweep option
 // values without going through the driver (no prechecks, no verification).
 SolveResult solve_faithful_part(const Structure& part, const SolveOptions& options,
-                                const Eigen::VectorXd& initial_forces, const AlternatingOptions& alternating);
+                                const AlternatingOptions& alternating);
 SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& options,
-                                    const Eigen::VectorXd& initial_forces, const AlternatingOptions& alternating);
+                                    const AlternatingOptions& alternating);
 
 std::unique_ptr<Solver> make_alternating_solver();
 std::unique_ptr<Solver> make_alternating_gn_solver();

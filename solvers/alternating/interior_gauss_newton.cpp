@@ -50,14 +50,16 @@ constexpr int kFinalPhaseSteps = 20;
 // Adaptive damping (InteriorGaussNewtonOptions::adaptive_damping): the factor
 // by which lambda grows after a shortened step and shrinks after a full one.
 constexpr double kDampingFactor = 10.0;
+// The test whether the input already stands: at most this many force-only
+// steps, each of which must shrink the objective by this factor at least.
+constexpr int kForceOnlySteps = 4;
+constexpr double kNewtonLikeDecrease = 1e-3;
 
 class InteriorSolve {
  public:
-  InteriorSolve(const Structure& part, const SolveOptions& options, const Eigen::VectorXd& initial_forces,
-                const InteriorGaussNewtonOptions& o)
+  InteriorSolve(const Structure& part, const SolveOptions& options, const InteriorGaussNewtonOptions& o)
       : part_(part),
         options_(options),
-        initial_forces_(initial_forces),
         o_(o),
         recorder_(options.time_limit_s),
         eq_(part),
@@ -107,7 +109,6 @@ class InteriorSolve {
 
   const Structure& part_;
   const SolveOptions& options_;
-  const Eigen::VectorXd& initial_forces_;  // N; empty: none
   const InteriorGaussNewtonOptions& o_;
   TraceRecorder recorder_;
   Equilibrium eq_;
@@ -208,30 +209,19 @@ bool InteriorSolve::line_search(bool chord) {
 }
 
 SolveResult InteriorSolve::run() {
-  const int m = eq_.num_elements();
-  // Is the input already a tensegrity? With the caller's QP forces that is
-  // one evaluation; without them, force-only steps (the geometry fixed).
-  if (initial_forces_.size() == m && initial_forces_.allFinite()) {
-    sigma_ = initial_forces_;
-    phi_ = objective(sigma_, f_);
+  // Is the input already a tensegrity? Force-only steps (the geometry fixed).
+  sigma_ = reference_forces(part_, scale_);
+  phi_ = objective(sigma_, f_);
+  lambda_ = o_.lambda;
+  for (int step = 0; step < kForceOnlySteps && factorize(false); ++step) {
+    const double before = phi_;
+    step_direction(false);
+    if (!line_search()) break;
     if (relative_residual(f_, sigma_) <= options_.tolerance) {
       record(0);
       return finish(Status::Converged, "in equilibrium at the input geometry");
     }
-  } else {
-    sigma_ = reference_forces(part_, scale_);
-    phi_ = objective(sigma_, f_);
-    lambda_ = o_.lambda;
-    for (int step = 0; step < 4 && factorize(false); ++step) {
-      const double before = phi_;
-      step_direction(false);
-      if (!line_search()) break;
-      if (relative_residual(f_, sigma_) <= options_.tolerance) {
-        record(0);
-        return finish(Status::Converged, "in equilibrium at the input geometry");
-      }
-      if (phi_ > 1e-3 * before) break;  // not converging like Newton: the geometry must move
-    }
+    if (phi_ > kNewtonLikeDecrease * before) break;  // not converging like Newton: the geometry must move
   }
 
   sigma_ = reference_forces(part_, scale_);
@@ -294,9 +284,8 @@ SolveResult InteriorSolve::run() {
 }  // namespace
 
 SolveResult solve_interior_gauss_newton(const Structure& part, const SolveOptions& options,
-                                        const Eigen::VectorXd& initial_forces,
                                         const InteriorGaussNewtonOptions& interior) {
-  InteriorSolve solve(part, options, initial_forces, interior);
+  InteriorSolve solve(part, options, interior);
   return solve.run();
 }
 

@@ -60,9 +60,7 @@ struct InteriorGaussNewtonOptions {
 // first attempt stalls and this one converges linearly.
 InteriorGaussNewtonOptions patient_interior_options();
 
-// `initial_forces`: the stress QP's forces at the part's geometry (N), or empty.
 SolveResult solve_interior_gauss_newton(const Structure& part, const SolveOptions& options,
-                                        const Eigen::VectorXd& initial_forces,
                                         const InteriorGaussNewtonOptions& interior);
 
 }  // namespace tensegrity

@@ -24,6 +24,7 @@
 #include "model/verify.hpp"
 #include "solvers/ipopt/dimensionless_eq5.hpp"
 #include "solvers/option_reader.hpp"
+#include "solvers/standing_check.hpp"
 #include "solvers/trace_recorder.hpp"
 
 namespace tensegrity {
@@ -463,13 +464,16 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   const double max_free_weight = part.max_free_node_weight();
 
   MinimalGeometryChangeNlp nlp(part, scale);
-  // The start's forces satisfy the problem's own prestress row; without
-  // gravity the driver's stress QP at this geometry already does.
+  // The start's forces satisfy the problem's own prestress row. Without
+  // gravity the stress QP of the driver's check does, and where it runs to
+  // its end its forces are the better start on degenerate scenes
+  // (docs/BACKENDS.md, "The check whether a scene already stands"); computed
+  // here, so that the answer does not depend on whether the driver checked.
   const bool held_start = scale.has_prestress_cap();
   const SceneForces sigma0([&] {
-    return !held_start && part_problem.initial_forces.size() == part.num_elements() &&
-                   part_problem.initial_forces.allFinite()
-               ? part_problem.initial_forces
+    Eigen::VectorXd checked = held_start ? Eigen::VectorXd() : standing_check_forces(part, options);
+    return checked.size() == part.num_elements()
+               ? checked
                : eq5_start_forces(part, part.positions, scale, Eigen::VectorXd(), reference_forces(part, scale));
   });
 

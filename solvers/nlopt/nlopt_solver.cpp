@@ -8,6 +8,7 @@
 #include "model/verify.hpp"
 #include "solvers/nlopt/nlopt_internal.hpp"
 #include "solvers/option_reader.hpp"
+#include "solvers/standing_check.hpp"
 
 namespace tensegrity {
 namespace nlopt_detail {
@@ -215,14 +216,19 @@ SolveResult NloptSolver::DoSolve(const PartProblem& problem, const NloptOptions&
   const NloptRun o = resolve(nlopt_options, options);
   TraceRecorder recorder(options.time_limit_s);
   std::string route = reduced_algorithm_name(o.reduced_algorithm);
+  // The QP's first warm start, which on degenerate scenes decides the path of
+  // the proximal forces (docs/BACKENDS.md, "The check whether a scene already
+  // stands"); computed here, so that the answer does not depend on whether
+  // the driver checked.
+  const Eigen::VectorXd start_forces = o.reduced ? standing_check_forces(part, options) : Eigen::VectorXd();
   PartAnswer answer;
   if (!o.reduced) answer = solve_full(part, options, o, recorder);
   else if (o.reduced_algorithm == ReducedAlgorithm::Auto)
-    answer = solve_reduced_auto(part, options, o, problem.initial_forces, recorder, route);
+    answer = solve_reduced_auto(part, options, o, start_forces, recorder, route);
   else if (o.reduced_algorithm == ReducedAlgorithm::AlLbfgs || o.reduced_algorithm == ReducedAlgorithm::AlTnewton)
-    answer = solve_reduced_multipliers(part, options, o, problem.initial_forces, recorder);
+    answer = solve_reduced_multipliers(part, options, o, start_forces, recorder);
   else
-    answer = solve_reduced(part, options, o, problem.initial_forces, recorder);
+    answer = solve_reduced(part, options, o, start_forces, recorder);
   const RunEnd& end = answer.end;
 
   SolveResult result;
