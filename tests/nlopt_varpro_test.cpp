@@ -43,7 +43,7 @@ double directional_difference(ReducedResidual& r, const Eigen::VectorXd& y, cons
 // with differences along random directions and along the gradient itself.
 void expect_gradient_matches_differences(const Structure& scene) {
   const ForceScale scale = make_force_scale(scene);
-  ReducedResidual reduced(scene, scale, Eigen::VectorXd());
+  ReducedResidual reduced(scene, scale);
   const Eigen::VectorXd y = reduced.start();
   Eigen::VectorXd grad(reduced.num_variables());
   const double value = reduced.evaluate(y.data(), grad.data());
@@ -80,7 +80,7 @@ TEST(NloptReducedResidual, GradientMatchesCentralDifferencesUnderGravity) {
 
 TEST(NloptReducedResidual, VanishesOnTheRegularPrismAndItsForcesAreNormalised) {
   const Structure scene = scenes::prism(6);
-  ReducedResidual reduced(scene, make_force_scale(scene), Eigen::VectorXd());
+  ReducedResidual reduced(scene, make_force_scale(scene));
   Eigen::VectorXd grad(reduced.num_variables());
   const double value = reduced.evaluate(reduced.start().data(), grad.data());
   EXPECT_LE(value, 1e-24);
@@ -104,7 +104,7 @@ TEST(NloptReducedResidual, MultipliersShiftTheQpAndItsGradient) {
                                  scenes::perturbed(scenes::prism(6, 0.0, true), 0.05, 6u)}) {
     SCOPED_TRACE(scene.name);
     const ForceScale scale = make_force_scale(scene);
-    ReducedResidual reduced(scene, scale, Eigen::VectorXd(), /*proximal_forces=*/false);
+    ReducedResidual reduced(scene, scale, /*proximal_forces=*/false);
     const Eigen::VectorXd y = reduced.start();
     Eigen::VectorXd r_plain;
     reduced.evaluate(y.data(), nullptr);

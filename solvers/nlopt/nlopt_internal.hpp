@@ -104,11 +104,11 @@ PartAnswer solve_full(const Structure& part, const SolveOptions& options, const 
 // Eq. 5 reduced to the positions by variable projection, one scalar
 // constraint (nlopt_varpro.cpp).
 PartAnswer solve_reduced(const Structure& part, const SolveOptions& options, const NloptRun& run,
-                         const Eigen::VectorXd& initial_forces, TraceRecorder& recorder);
+                         TraceRecorder& recorder);
 
 // The same reduced formulation by the method of multipliers on its residual
 // vector (nlopt_varpro_multipliers.cpp): varpro_algorithm al-lbfgs, al-tnewton.
 PartAnswer solve_reduced_multipliers(const Structure& part, const SolveOptions& options, const NloptRun& run,
-                                     const Eigen::VectorXd& initial_forces, TraceRecorder& recorder);
+                                     TraceRecorder& recorder);
 
 }  // namespace tensegrity::nlopt_detail

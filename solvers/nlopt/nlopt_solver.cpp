@@ -8,7 +8,6 @@
 #include "model/verify.hpp"
 #include "solvers/nlopt/nlopt_internal.hpp"
 #include "solvers/option_reader.hpp"
-#include "solvers/standing_check.hpp"
 
 namespace tensegrity {
 namespace nlopt_detail {
@@ -107,13 +106,13 @@ ReducedAlgorithm scalar_route_for(const Structure& part) {
 // and, where it ends unverified, the second from the scene, keeping the
 // answer with the smaller residual. `route` names what ran.
 PartAnswer solve_reduced_auto(const Structure& part, const SolveOptions& options, const NloptRun& o,
-                              const Eigen::VectorXd& initial_forces, TraceRecorder& recorder, std::string& route) {
+                              TraceRecorder& recorder, std::string& route) {
   NloptRun first = o;
   first.reduced_algorithm = ReducedAlgorithm::AlLbfgs;
   first.maxeval = std::max(1L, static_cast<long>(kAutoMultiplierShare * static_cast<double>(o.maxeval)));
   SolveOptions first_options = options;
   first_options.time_limit_s = kAutoMultiplierShare * options.time_limit_s;
-  PartAnswer answer = solve_reduced_multipliers(part, first_options, first, initial_forces, recorder);
+  PartAnswer answer = solve_reduced_multipliers(part, first_options, first, recorder);
   route = reduced_algorithm_name(first.reduced_algorithm);
   const Verification first_check = verify(part, answer.positions, answer.forces, options.tolerance);
   if (first_check.ok || recorder.out_of_time() || answer.end.forced == ForcedStop::NonFinite) return answer;
@@ -126,7 +125,7 @@ PartAnswer solve_reduced_auto(const Structure& part, const SolveOptions& options
   second.maxeval = remaining;
   // One trace: the second run's iterations continue the first's.
   recorder.set_count_offset(answer.end.iterations);
-  PartAnswer fallback = solve_reduced(part, options, second, initial_forces, recorder);
+  PartAnswer fallback = solve_reduced(part, options, second, recorder);
   recorder.set_count_offset(0);
   fallback.end.iterations += answer.end.iterations;
   fallback.end.evaluations += answer.end.evaluations;
@@ -216,19 +215,14 @@ SolveResult NloptSolver::DoSolve(const PartProblem& problem, const NloptOptions&
   const NloptRun o = resolve(nlopt_options, options);
   TraceRecorder recorder(options.time_limit_s);
   std::string route = reduced_algorithm_name(o.reduced_algorithm);
-  // The QP's first warm start, which on degenerate scenes decides the path of
-  // the proximal forces (docs/BACKENDS.md, "The check whether a scene already
-  // stands"); computed here, so that the answer does not depend on whether
-  // the driver checked.
-  const Eigen::VectorXd start_forces = o.reduced ? standing_check_forces(part, options) : Eigen::VectorXd();
   PartAnswer answer;
   if (!o.reduced) answer = solve_full(part, options, o, recorder);
   else if (o.reduced_algorithm == ReducedAlgorithm::Auto)
-    answer = solve_reduced_auto(part, options, o, start_forces, recorder, route);
+    answer = solve_reduced_auto(part, options, o, recorder, route);
   else if (o.reduced_algorithm == ReducedAlgorithm::AlLbfgs || o.reduced_algorithm == ReducedAlgorithm::AlTnewton)
-    answer = solve_reduced_multipliers(part, options, o, start_forces, recorder);
+    answer = solve_reduced_multipliers(part, options, o, recorder);
   else
-    answer = solve_reduced(part, options, o, start_forces, recorder);
+    answer = solve_reduced(part, options, o, recorder);
   const RunEnd& end = answer.end;
 
   SolveResult result;

@@ -167,9 +167,9 @@ bool is_convergence_stop(nlopt::result code) {
 }  // namespace
 
 PartAnswer solve_reduced(const Structure& part, const SolveOptions& options, const NloptRun& o,
-                         const Eigen::VectorXd& initial_forces, TraceRecorder& recorder) {
+                         TraceRecorder& recorder) {
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
-  ReducedResidual reduced(part, scale, initial_forces);
+  ReducedResidual reduced(part, scale);
   ReducedState s;
   s.reduced = &reduced;
   s.recorder = &recorder;

@@ -105,9 +105,9 @@ nlopt::algorithm inner_algorithm(ReducedAlgorithm a) {
 }  // namespace
 
 PartAnswer solve_reduced_multipliers(const Structure& part, const SolveOptions& options, const NloptRun& o,
-                                     const Eigen::VectorXd& initial_forces, TraceRecorder& recorder) {
+                                     TraceRecorder& recorder) {
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
-  ReducedResidual reduced(part, scale, initial_forces, /*proximal_forces=*/true);
+  ReducedResidual reduced(part, scale, /*proximal_forces=*/true);
   const int n = reduced.num_variables();
   MultiplierState s;
   s.reduced = &reduced;

@@ -13,8 +13,7 @@ StressQpOptions reduced_qp_options(bool proximal_forces) {
 }
 }  // namespace
 
-ReducedResidual::ReducedResidual(const Structure& part, const ForceScale& scale,
-                                 const Eigen::VectorXd& initial_forces, bool proximal_forces)
+ReducedResidual::ReducedResidual(const Structure& part, const ForceScale& scale, bool proximal_forces)
     : part_(part), eq_(part_), scale_(held_at_prestress_cap(scale)), qp_(eq_, scale_, reduced_qp_options(proximal_forces)) {
   const double mean_length = part_.mean_element_length();
   length_ = std::isfinite(mean_length) && mean_length > 0.0 ? mean_length : 1.0;
@@ -28,9 +27,7 @@ ReducedResidual::ReducedResidual(const Structure& part, const ForceScale& scale,
   load_scale_ = weight > 0.0 ? weight : reference_force_;
   q0_ = eq_.free_nodes().gather(part_.positions);
   y0_ = Eigen::VectorXd::Zero(q0_.size());
-  sigma_ = initial_forces.size() == part_.num_elements() && initial_forces.allFinite()
-               ? initial_forces
-               : reference_forces(part_, scale_);
+  sigma_ = reference_forces(part_, scale_);
 }
 
 double ReducedResidual::evaluate(const double* y, double* grad) {

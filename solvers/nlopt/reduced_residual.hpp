@@ -32,16 +32,15 @@ namespace tensegrity {
 
 class ReducedResidual {
  public:
-  // `scale` is the part's force scale for Eq. 5; `initial_forces` (N) warm-start
-  // the first QP solve (ignored unless sized to the part's elements). With
-  // `proximal_forces` the QP picks, among equally good forces, those closest
-  // to the previous evaluation's (StressQpOptions::proximal): on parts whose
-  // equilibrium matrix has a null space, R is then not differentiable in the
-  // strict sense (its gradient depends on which optimal forces the QP
-  // returns), and forces that follow the path keep that gradient consistent
-  // from one evaluation to the next, which L-BFGS's line search needs.
-  ReducedResidual(const Structure& part, const ForceScale& scale, const Eigen::VectorXd& initial_forces,
-                  bool proximal_forces = false);
+  // `scale` is the part's force scale for Eq. 5; the first QP solve starts
+  // from the reference forces. With `proximal_forces` the QP picks, among
+  // equally good forces, those closest to the previous evaluation's
+  // (StressQpOptions::proximal): on parts whose equilibrium matrix has a null
+  // space, R is then not differentiable in the strict sense (its gradient
+  // depends on which optimal forces the QP returns), and forces that follow
+  // the path keep that gradient consistent from one evaluation to the next,
+  // which L-BFGS's line search needs.
+  ReducedResidual(const Structure& part, const ForceScale& scale, bool proximal_forces = false);
 
   int num_variables() const { return static_cast<int>(y0_.size()); }
   // y = 0: the scene's geometry.
