@@ -86,6 +86,13 @@ class InteriorSolve {
     return std::isfinite(scale_.lower[e]) ? sigma - scale_.lower[e] : scale_.upper[e] - sigma;
   }
   bool factorize(bool move_positions);
+  // The reference forces with the initial damping: where both the standing
+  // test and the solve begin.
+  void start_from_reference_forces() {
+    sigma_ = reference_forces(part_, scale_);
+    phi_ = objective(sigma_, f_);
+    lambda_ = o_.lambda;
+  }
   // Solves for the step (anchored or plain) with the current factorization.
   void step_direction(bool anchored);
   // Backtracking along the step within the slack and trust limits; true when
@@ -210,9 +217,7 @@ bool InteriorSolve::line_search(bool chord) {
 
 SolveResult InteriorSolve::run() {
   // Is the input already a tensegrity? Force-only steps (the geometry fixed).
-  sigma_ = reference_forces(part_, scale_);
-  phi_ = objective(sigma_, f_);
-  lambda_ = o_.lambda;
+  start_from_reference_forces();
   for (int step = 0; step < kForceOnlySteps && factorize(false); ++step) {
     const double before = phi_;
     step_direction(false);
@@ -224,9 +229,7 @@ SolveResult InteriorSolve::run() {
     if (phi_ > kNewtonLikeDecrease * before) break;  // not converging like Newton: the geometry must move
   }
 
-  sigma_ = reference_forces(part_, scale_);
-  phi_ = objective(sigma_, f_);
-  lambda_ = o_.lambda;
+  start_from_reference_forces();
   bool anchored = true;
   bool steady_cut = false;  // the last step cut the objective to kFinalPhaseCut or less
   for (int iteration = 0;; ++iteration) {

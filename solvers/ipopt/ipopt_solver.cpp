@@ -470,11 +470,12 @@ SolveResult IpoptSolver::DoSolve(const PartProblem& part_problem, const IpoptOpt
   // (docs/BACKENDS.md, "The check whether a scene already stands"); computed
   // here, so that the answer does not depend on whether the driver checked.
   const bool held_start = scale.has_prestress_cap();
-  const SceneForces sigma0([&] {
-    Eigen::VectorXd checked = held_start ? Eigen::VectorXd() : standing_check_forces(part, options);
-    return checked.size() == part.num_elements()
-               ? checked
-               : eq5_start_forces(part, part.positions, scale, Eigen::VectorXd(), reference_forces(part, scale));
+  const SceneForces sigma0([&]() -> Eigen::VectorXd {
+    if (!held_start) {
+      Eigen::VectorXd checked = standing_check_forces(part, options);
+      if (checked.size() == part.num_elements()) return checked;
+    }
+    return eq5_start_forces(part, part.positions, scale, Eigen::VectorXd(), reference_forces(part, scale));
   });
 
   // Ipopt's constraint violation is the max-norm of f / F0; docs/FORMATS.md asks
