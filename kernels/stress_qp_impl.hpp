@@ -57,6 +57,14 @@ struct InteriorPointConstants {
   static constexpr double kCenteringPower = 3.0;  // Mehrotra's sigma = (gap_aff / gap)^3
   static constexpr double kSmallestMultiplier = 1e-300;
   static constexpr int kRefinements = 3;
+  // The early end of the phase (StressQpOptions::end_interior_point_when_settled):
+  // the window of iterations, the largest relative change of the relative
+  // residual over it, the least fall of the mean complementarity across it,
+  // and how far above give_up_residual the residual must have settled.
+  static constexpr int kSettledWindow = 2;
+  static constexpr double kSettledChange = 0.01;
+  static constexpr double kSettledGapFall = 4.0;
+  static constexpr double kSettledAboveGiveUp = 10.0;
 };
 
 // Polish: preconditioned conjugate gradients on the free set.
@@ -181,9 +189,10 @@ struct Impl {
   // One Newton step of projected Newton; false when no progress is possible.
   bool projected_newton_step(SolveState& st, bool record);
   // Interior point + crossover (stress_qp_interior_point.cpp); returns the
-  // number of factorizations.
-  int interior_point(const SparseMatrix& A, const Eigen::VectorXd* fg, const Eigen::VectorXd& centre,
-                     double scale, Eigen::VectorXd& x);
+  // number of factorizations. `give_up_residual` > 0: ends early where
+  // StressQpOptions::end_interior_point_when_settled says.
+  int interior_point(const SolveState& st, const Eigen::VectorXd& centre, double scale, double give_up_residual,
+                     Eigen::VectorXd& x);
   // Removes the mu bias on the free set (stress_qp_polish.cpp).
   void polish(const StressQpOptions& options, SolveState& st);
   void polish_free_set(const StressQpOptions& options, SolveState& st);

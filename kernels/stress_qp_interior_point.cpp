@@ -1,5 +1,6 @@
 // The interior-point phase of the stress QP (kernels/stress_qp.hpp).
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "kernels/stress_qp_impl.hpp"
@@ -19,8 +20,10 @@ using C = InteriorPointConstants;
 // returns a point close to the optimum, whose active set the projected
 // Newton iteration then confirms in a few steps. Returns the number of
 // factorizations (x is left at the last iterate).
-int Impl::interior_point(const SparseMatrix& A, const Eigen::VectorXd* fg,
-                                   const Eigen::VectorXd& centre, double scale, Eigen::VectorXd& x) {
+int Impl::interior_point(const SolveState& st, const Eigen::VectorXd& centre, double scale, double give_up_residual,
+                         Eigen::VectorXd& x) {
+  const SparseMatrix& A = *st.A;
+  const Eigen::VectorXd* fg = st.fg;
   for (Eigen::VectorXd* v : {&ip_rd, &ip_d, &ip_rhs, &ip_dx, &ip_dx_aff}) v->resize(m);
   // h = A^T f_g - w^2 t c - mu centre.
   ip_h.setZero(m);
@@ -70,6 +73,22 @@ int Impl::interior_point(const SparseMatrix& A, const Eigen::VectorXd* fg,
   };
   ip_dzl.setZero(m);
   ip_dzu.setZero(m);
+  // The relative residual and the mean complementarity of the latest
+  // iterates with the dual residual met (oldest first), for the early end.
+  std::array<double, C::kSettledWindow + 1> settled_residual{}, settled_gap{};
+  int settled = 0;
+  auto residual_settled_far = [&](double gap) {
+    residual(A, fg, x, r);
+    std::rotate(settled_residual.begin(), settled_residual.begin() + 1, settled_residual.end());
+    std::rotate(settled_gap.begin(), settled_gap.begin() + 1, settled_gap.end());
+    settled_residual.back() = relative_residual(st, x);
+    settled_gap.back() = gap;
+    if (++settled <= C::kSettledWindow) return false;
+    const double now = settled_residual.back();
+    for (double then : settled_residual)
+      if (!(std::abs(then - now) <= C::kSettledChange * now)) return false;
+    return now > C::kSettledAboveGiveUp * give_up_residual && C::kSettledGapFall * gap <= settled_gap.front();
+  };
   int factorizations = 0;
   for (int iteration = 0; iteration < C::kMaxIterations; ++iteration) {
     // Dual residual r_d = N x + h - z_l + z_u.
@@ -80,9 +99,10 @@ int Impl::interior_point(const SparseMatrix& A, const Eigen::VectorXd* fg,
     // The crossover below needs every active bound's slack under its
     // multiplier, and near-mechanisms under gravity have tiny multipliers:
     // hence a complementarity target far below the dual one.
-    if (ip_rd.lpNorm<Eigen::Infinity>() <= C::kDualTolerance * scale &&
-        gap_now <= C::kComplementarityTolerance * scale * scale)
-      break;
+    const bool dual_met = ip_rd.lpNorm<Eigen::Infinity>() <= C::kDualTolerance * scale;
+    if (dual_met && gap_now <= C::kComplementarityTolerance * scale * scale) break;
+    if (give_up_residual > 0.0 && !dual_met) settled = 0;
+    if (give_up_residual > 0.0 && dual_met && residual_settled_far(gap_now)) break;
     for (int i = 0; i < m; ++i)
       ip_d[i] = (ip_zl[i] > 0.0 ? ip_zl[i] / s_lower(i) : 0.0) + (ip_zu[i] > 0.0 ? ip_zu[i] / s_upper(i) : 0.0);
     ++factorizations;

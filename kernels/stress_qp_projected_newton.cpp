@@ -11,7 +11,6 @@ namespace stress_qp_detail {
 using C = ProjectedNewtonConstants;
 
 void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
-  const SparseMatrix& A = *st.A;
   // Only a cold start takes non-monotone steps (also after its interior-point
   // phase): from a warm start the optimum is near, and on degenerate scenes
   // the projection of a full step predicts its active set badly.
@@ -26,7 +25,8 @@ void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
       // small forces the mu term asks for, so mu is centred on it from here
       // on (the pull towards the origin would trade residual for norm again).
       st.interior_point_used = true;
-      st.factorizations += interior_point(A, st.fg, center, std::max(f0, st.fg_max), s);
+      const double give_up_residual = options.end_interior_point_when_settled ? options.give_up_residual : 0.0;
+      st.factorizations += interior_point(st, center, std::max(f0, st.fg_max), give_up_residual, s);
       for (int i = 0; i < m; ++i) s[i] = project(i, std::isfinite(s[i]) ? s[i] : 0.0);
       center = s;
       st.best_objective = kInf;

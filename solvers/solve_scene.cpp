@@ -45,7 +45,10 @@ constexpr double kIpoptInCheckBelow = 1e-4;
 // to be solved, and the rest of the QP, for forces that are only the
 // backend's start, costs more than the backend. Not at the phase's own point:
 // its crossover guesses the active set, and on the gravity prisms with 0.1 %
-// node noise, which stand, it is still above 1e-2 there.
+// node noise, which stand, it is still above 1e-2 there. For the same reason
+// the phase itself only ends early where its residual has settled far above
+// kCheckGivesUpAbove (StressQpOptions::end_interior_point_when_settled), and
+// those steps still judge.
 constexpr int kCheckInteriorPointAfter = 0;
 constexpr int kCheckGivesUpAfter = 5;
 constexpr double kCheckGivesUpAbove = 1e-2;
@@ -344,6 +347,7 @@ StressQpOptions standing_check_qp_options() {
   o.interior_point_after = kCheckInteriorPointAfter;
   o.give_up_after = kCheckGivesUpAfter;
   o.give_up_residual = kCheckGivesUpAbove;
+  o.end_interior_point_when_settled = true;
   return o;
 }
 
