@@ -58,10 +58,16 @@ if [ "${TENSEGRITY_SKIP_SANITIZERS:-0}" != 1 ]; then
   # factor's CLI sweep: they repeat solves that other CLI tests run under the
   # sanitizers, and only compare their numbers. The stress QP on the 40-layer
   # tower's equilibrium without gravity (about 10 s in Release) runs there as
-  # well; the same kernel runs sanitized on the 10-layer tower. So does Ipopt on
-  # the 160-layer gravity tower (about 5 s in Release); the same start runs
-  # sanitized on the scorpion.
-  long_sweeps='^ForceScaleGravity\.TowerOf40LayersWithoutGravityEquilibriumPassesForces$|^AlternatingSolver\.MarginOptionSetsTheSmallestCableForce$|^AlternatingSolver/StronglyPerturbedPrisms\.ConvergeExceptOnTheNamedScenesAndFailCleanly/alternating(_sdc)?( |$)|^AlternatingSolver\.FaithfulSchemeConvergesOnPerturbedCharacters$|^AlternatingSolver\.PerturbedOctahedraConverge$|^ForceScaleGravity\.EquilibriaOfTheMassFamilyStand$|^StressTestCommand\.ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads$|^cli_prestress_factor$|^schema_test$|^IpoptSolver\.Eq5NewtonStartVerifiesTheLargestGravityTower$'
+  # well, alone, through Ipopt's residual form and through the command line
+  # (a minute each under ASan); the same kernels run sanitized on smaller
+  # scenes. So does Ipopt on the 160-layer gravity tower (about 5 s in
+  # Release); the same start runs sanitized on the scorpion. And so does the
+  # sweep of every bad input in every role a command reads a file in (675
+  # program runs, five minutes of the two cores under ASan): every bad input
+  # still runs sanitized through `solve` and `forces` (CliBadInput), every
+  # role still runs sanitized on the hostile files of CliHostileInput, and
+  # the parsers are fuzzed below.
+  long_sweeps='^ForceScaleGravity\.TowerOf40LayersWithoutGravityEquilibriumPassesForces$|^AlternatingSolver\.MarginOptionSetsTheSmallestCableForce$|^AlternatingSolver/StronglyPerturbedPrisms\.ConvergeExceptOnTheNamedScenesAndFailCleanly/alternating(_sdc)?( |$)|^AlternatingSolver\.FaithfulSchemeConvergesOnPerturbedCharacters$|^AlternatingSolver\.PerturbedOctahedraConverge$|^ForceScaleGravity\.EquilibriaOfTheMassFamilyStand$|^StressTestCommand\.ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads$|^cli_prestress_factor$|^schema_test$|^IpoptSolver\.Eq5NewtonStartVerifiesTheLargestGravityTower$|^StressQpIpopt\.FindsTheEquilibriumOfALargeNearMechanism$|^cli_standing_tower$|^Roles/CliHostileInputPerRole\.EveryBadInputClass/'
   (cd build-asan &&
      ASAN_OPTIONS=detect_leaks=1:exitcode=23:strict_string_checks=1:detect_stack_use_after_return=1 \
      UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1:exitcode=23 \

@@ -805,7 +805,7 @@ constexpr double kFinishedCheckNoise = 0.003;  // of the median element length
 constexpr unsigned kFinishedCheckSeed = 5u;
 
 TEST(StressQp, AfterTheChecksGiveUpTheBackendsAnswerIsItsOwn) {
-  constexpr int kLayers = 40;
+  constexpr int kLayers = 20;
   const Structure s = testing::gravity_tower_at_equilibrium(kLayers);  // 1 % node noise
   Equilibrium eq(s);
   const StressQpResult check = StressQp(eq, make_force_scale(s), standing_check_qp_options()).solve();
