@@ -36,6 +36,8 @@
 #                  side-by-side/, medians of 3, FIGURES_TIME_LIMIT s per solve)
 #   prestress-factor.md  Eq. 5's cap kappa (--prestress-factor) against the
 #                  geometry change, ipopt and alternating-gn, gravity scenes and characters
+#   two-cores.md   batch and stress-test with --measure-speedup on mixed sets that
+#                  include Ipopt solves (one worker, then two; 3 runs each)
 #   ipopt-auto-stress.md  ipopt start=scene against start=auto over the stress
 #                  test (only when FIGURES_SECTIONS names ipopt_auto_stress)
 #   ipopt-default-stress.md  ipopt start=auto against its default start=eq5-newton
@@ -59,7 +61,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor; ipopt_auto_stress,
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor two_cores; ipopt_auto_stress,
 # ipopt_default_stress and nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
@@ -1324,9 +1326,71 @@ nlopt_variants() {
   } >>"$out/nlopt-variants.md"
 }
 
+# Both cores: `batch` and `stress-test` with --measure-speedup, each run three
+# times. The batch set mixes what users solve: the reference scenes, the
+# characters as built and generated towers with node noise (gravity towers of
+# 4 to 80 layers, plain 10-layer towers that start far from equilibrium).
+two_cores() {
+  step "two-cores.md: batch and stress-test, one worker then two (3 runs each)"
+  local set="$work/two-cores-set" rounds=3
+  mkdir -p "$set"
+  cp data/reference/*.scene.json "$set/"
+  for c in duck puppy scorpion; do
+    "$tg" build "data/characters/$c.character.json" --out "$set/$c.scene.json" >/dev/null
+  done
+  tower() {  # tower LAYERS STRUTS CABLES SEED NOISE [--gravity]
+    "$tg" generate tower --layers "$1" --struts-per-layer "$2" --cables "$3" --noise "$5" --seed "$4" "${@:6}" \
+      --out "$set/tower-$1x$2${6:+-gravity}-s$4.scene.json" >/dev/null
+  }
+  for seed in 1 2 3 4 5 6; do tower 4 6 100 "$seed" 0.02 --gravity; done
+  tower 3 8 150 1 0.02
+  for seed in 1 2 3 4; do tower 10 8 500 "$seed" 0.01 --gravity; tower 40 8 2000 "$seed" 0.01 --gravity; done
+  for seed in 1 2; do tower 20 8 1000 "$seed" 0.01 --gravity; tower 80 8 4000 "$seed" 0.01 --gravity; done
+  for seed in 1 2 3; do tower 10 8 500 "$seed" 0.01; done
+  local solvers=ipopt,alternating-gn,eq5-newton
+  local batch_cmd="$tg batch SET --solver $solvers --no-skip --time-limit 20 --jobs 2 --measure-speedup --json batch.json --out-dir OUT"
+  local stress_cmd="$tg stress-test --scenes tower,character --families noise,twist --trials 1 --solvers $solvers --time-limit 10 --jobs 2 --measure-speedup --out stress.json"
+  for round in $(seq 1 "$rounds"); do
+    rm -rf "$work/two-cores-out" && mkdir -p "$work/two-cores-out"
+    "$tg" batch "$set" --solver "$solvers" --no-skip --time-limit 20 --jobs 2 --measure-speedup --quiet \
+      --json "$work/two-cores-batch-$round.json" --out-dir "$work/two-cores-out" >/dev/null
+    "$tg" stress-test --scenes tower,character --families noise,twist --trials 1 --solvers "$solvers" \
+      --time-limit 10 --jobs 2 --measure-speedup --quiet --data data --out "$work/two-cores-stress-$round.json" >/dev/null
+  done
+  header "$out/two-cores.md" "Both cores: batch and stress-test, one worker against two" "$batch_cmd" "; $stress_cmd"
+  "$py" - "$work" "$rounds" "$(ls "$set" | wc -l)" >>"$out/two-cores.md" <<'EOF2'
+import json, statistics, sys
+work, rounds, scenes = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+print(f"The batch set: {scenes} scenes (the 22 reference scenes; the duck, the puppy and the scorpion as built; "
+      "`generate tower` with node noise: six 4-layer 6-strut and one 3-layer 8-strut tower at 2 %, four "
+      "10-layer, two 20-layer, four 40-layer and two 80-layer 8-strut gravity towers at 1 %, three 10-layer "
+      "8-strut towers without gravity at 1 %, far from equilibrium), each solved by every backend named. The "
+      "stress-test set: the tower and character scenes of the stress test, noise and twist families, one trial "
+      "each. Each command first solves everything with one worker process, then with two (longest estimated "
+      "job first); `measured` is the one-worker wall time over the two-worker wall time, `estimate` the sum of "
+      "the jobs' wall times over the two-worker wall time. One OpenBLAS thread per process. The one-worker pass "
+      "runs first, with cold caches: where its CPU time exceeds the two-worker pass's, `measured` can exceed 2.\n")
+print("| command | run | jobs | converged | one worker: wall s | two workers: wall s | two workers: CPU s | measured | estimate |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+medians = {}
+for name, label in (("batch", "`batch`"), ("stress", "`stress-test`")):
+    measured = []
+    for r in range(1, rounds + 1):
+        d = json.load(open(f"{work}/two-cores-{name}-{r}.json"))
+        t, sp = d["totals"], d["speedup"]
+        jobs = t["jobs"] if "jobs" in t else t["solves"]
+        print(f"| {label} | {r} | {jobs} | {t['converged']} | {sp['serial_wall_seconds']:.2f} | "
+              f"{t['wall_seconds']:.2f} | {t['cpu_seconds']:.2f} | {sp['measured']:.2f} | {sp['estimate']:.2f} |")
+        measured.append(sp["measured"])
+    medians[label] = statistics.median(measured)
+print()
+print("Median measured speed-up: " + "; ".join(f"{k} {v:.2f}" for k, v in medians.items()) + ".")
+EOF2
+}
+
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor two_cores}; do
   "$section"
 done
 step "done; figures in $out"
