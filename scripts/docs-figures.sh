@@ -1336,7 +1336,7 @@ two_cores() {
   mkdir -p "$set"
   cp data/reference/*.scene.json "$set/"
   for c in duck puppy scorpion; do
-    "$tg" build "data/characters/$c.character.json" --out "$set/$c.scene.json" >/dev/null
+    "$tg" build "data/characters/$c.character.json" --out "$set/$c.scene.json" >/dev/null 2>&1
   done
   tower() {  # tower LAYERS STRUTS CABLES SEED NOISE [--gravity]
     "$tg" generate tower --layers "$1" --struts-per-layer "$2" --cables "$3" --noise "$5" --seed "$4" "${@:6}" \
@@ -1368,8 +1368,10 @@ print(f"The batch set: {scenes} scenes (the 22 reference scenes; the duck, the p
       "stress-test set: the tower and character scenes of the stress test, noise and twist families, one trial "
       "each. Each command first solves everything with one worker process, then with two (longest estimated "
       "job first); `measured` is the one-worker wall time over the two-worker wall time, `estimate` the sum of "
-      "the jobs' wall times over the two-worker wall time. One OpenBLAS thread per process. The one-worker pass "
-      "runs first, with cold caches: where its CPU time exceeds the two-worker pass's, `measured` can exceed 2.\n")
+      "the jobs' wall times over the two-worker wall time. One OpenBLAS thread per process. On a shared machine "
+      "a pass's wall time varies by tens of per cent from run to run, which moves `measured` either way (above 2 "
+      "where the one-worker pass ran slower than the two-worker pass's CPU time suggests); `estimate` divides "
+      "times of the same pass.\n")
 print("| command | run | jobs | converged | one worker: wall s | two workers: wall s | two workers: CPU s | measured | estimate |")
 print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
 medians = {}
