@@ -36,6 +36,9 @@
 #                  side-by-side/, medians of 3, FIGURES_TIME_LIMIT s per solve)
 #   prestress-factor.md  Eq. 5's cap kappa (--prestress-factor) against the
 #                  geometry change, ipopt and alternating-gn, gravity scenes and characters
+#   towers-as-generated.md  alternating-gn, eq5-newton and ipopt through `solve` on the
+#                  towers as generated (L = 10, 40, 160, with and without gravity;
+#                  FIGURES_AS_GENERATED_TOWER_LAYERS, FIGURES_AS_GENERATED_TIME_LIMIT s, default 120)
 #   two-cores.md   batch and stress-test with --measure-speedup on mixed sets that
 #                  include Ipopt solves (one worker, then two; 3 runs each)
 #   ipopt-auto-stress.md  ipopt start=scene against start=auto over the stress
@@ -61,7 +64,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor two_cores; ipopt_auto_stress,
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers towers_as_generated prestress_factor two_cores; ipopt_auto_stress,
 # ipopt_default_stress and nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
@@ -962,6 +965,62 @@ EOF2
   done
 }
 
+# The recommended backends on the towers as `generate tower` writes them (far
+# from equilibrium): alternating-gn, eq5-newton (which starts from
+# alternating-gn's equilibrium) and ipopt (which starts from eq5-newton's
+# answer), each through `tensegrity solve`, each answer re-verified by `check`.
+towers_as_generated() {
+  local layers=${FIGURES_AS_GENERATED_TOWER_LAYERS:-10 40 160}
+  local as_limit=${FIGURES_AS_GENERATED_TIME_LIMIT:-120}
+  step "towers as generated, layers $layers, alternating-gn, eq5-newton, ipopt ($as_limit s per solve)"
+  local cmd="for L in $layers, with and without --gravity: $tg generate tower --layers L --struts-per-layer 8 --cables 50L; $tg solve --solver B --time-limit $as_limit; $tg check"
+  header "$out/towers-as-generated.md" "The towers as generated: alternating-gn, eq5-newton and ipopt" "$cmd"
+  {
+    echo "Scenes: \`generate tower --layers L --struts-per-layer 8 --cables 50L [--gravity]\` as written"
+    echo "(58 L elements, far from equilibrium). One run each through \`tensegrity solve\` (the"
+    echo "driver's check included), at most $as_limit s, target relative residual 1e-8; seconds are the"
+    echo "solve's own; \`check\` re-verifies the solution file. \`change / best\`: geometry change over"
+    echo "the smallest verified one of the three on the scene."
+    echo
+    echo "| layers | elements | gravity | backend | status | seconds | iterations | geometry change (m) | change / best | check | how it ended |"
+    echo "|---:|---:|---|---|---|---:|---:|---:|---:|---|---|"
+  } >>"$out/towers-as-generated.md"
+  local L g flag backend
+  for L in $layers; do
+    for g in no yes; do
+      flag=""
+      [ "$g" = yes ] && flag="--gravity"
+      "$tg" generate tower --layers "$L" --struts-per-layer 8 --cables $((50 * L)) $flag --out "$work/ag.json" >/dev/null
+      for backend in alternating-gn eq5-newton ipopt; do
+        "$tg" solve "$work/ag.json" --solver "$backend" --time-limit "$as_limit" --quiet \
+          --out "$work/ag.$backend.json" >/dev/null 2>&1 || true
+        if "$tg" check "$work/ag.json" "$work/ag.$backend.json" >/dev/null 2>&1; then
+          echo verified >"$work/ag.$backend.check"
+        else
+          echo "NOT verified" >"$work/ag.$backend.check"
+        fi
+      done
+      "$py" - "$work" "$L" "$g" >>"$out/towers-as-generated.md" <<'EOF2'
+import json, sys
+work, layers, gravity = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+rows = []
+for backend in ("alternating-gn", "eq5-newton", "ipopt"):
+    d = json.load(open(f"{work}/ag.{backend}.json"))
+    verdict = open(f"{work}/ag.{backend}.check").read().strip()
+    rows.append((backend, d, verdict))
+verified = [d["stats"]["geometry_change"] for _, d, v in rows if v == "verified"]
+best = min(verified) if verified else float("nan")
+for backend, d, verdict in rows:
+    st = d["stats"]
+    ratio = f"{st['geometry_change'] / best:.3f}" if verdict == "verified" and best > 0 else "-"
+    how = d.get("message", "").split(";")[0].replace("|", "/")[:110]
+    print(f"| {layers} | {58 * layers:,} | {gravity} | {backend} | {d['status']} | {st['seconds']:.3g} | "
+          f"{st['iterations']} | {st['geometry_change']:.4g} | {ratio} | {verdict} | {how} |")
+EOF2
+    done
+  done
+}
+
 # eq5-newton against the alternating-gn equilibrium it starts from and Ipopt
 # warm-started at that equilibrium (eq5_newton_bench, medians of 3, one BLAS thread).
 eq5_newton() {
@@ -1392,7 +1451,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers prestress_factor two_cores}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers towers_as_generated prestress_factor two_cores}; do
   "$section"
 done
 step "done; figures in $out"
