@@ -1,7 +1,8 @@
 // `tensegrity stress-test` and determinism: the same options give a
 // bit-identical report run to run and on one or two threads; `solve` gives
 // bit-identical positions and forces run to run with every backend; a bad
-// file of the data folder is skipped with one line and exit status 1.
+// file of the data folder is skipped with one line and exit status 1; the
+// driver's check finds that a stress-test scorpion with long elements stands.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -149,6 +150,32 @@ TEST_F(StressTestCommand, BackendOptionsReachEverySolver) {
   EXPECT_EQ(converged(plain), 1);
   ASSERT_EQ(stress({"--option", "gamma=1e-12", "--option", "i_max=1"}), 0) << read_text(dir_ / "err");
   EXPECT_EQ(converged(json::parse(read_text(out))), 0);
+}
+
+// The driver's check whether a scene already stands: the stress test's
+// scorpion with a length ratio of 1,000 stands, yet the stress QP leaves it at
+// relative residual 2.3e-4; the check's short polish (solve_scene.cpp) finds
+// its forces, so alternating-gn returns it unmoved (without that polish it
+// moved the scorpion 1.74 m).
+TEST_F(StressTestCommand, TheChecksPolishFindsThatAScorpionWithLongElementsStands) {
+  const fs::path out = dir_ / "scorpion.json";
+  const fs::path data = fs::path(TENSEGRITY_SOURCE_DIR) / "data";
+  // The time limit only cuts short the ratio 1e4's trial, which spends its iteration budget (10 s).
+  ASSERT_EQ(run({"stress-test", "--scenes", "scorpion", "--families", "length-ratio", "--trials", "1", "--solvers",
+                 "alternating-gn", "--time-limit", "2", "--jobs", "1", "--quiet", "--data", data.string(), "--out",
+                 out.string()},
+                dir_ / "err"),
+            0)
+      << read_text(dir_ / "err");
+  const json report = json::parse(read_text(out));
+  int found = 0;
+  for (const json& trial : report["trials"]) {
+    if (trial["level"] != "1000") continue;
+    ++found;
+    EXPECT_TRUE(trial["verified"].get<bool>());
+    EXPECT_EQ(trial["geometry_change"].get<double>(), 0.0);
+  }
+  EXPECT_EQ(found, 1);
 }
 
 // A bad file in the data folder is named in one line and left out, as `batch`
