@@ -12,7 +12,9 @@
 #include <initializer_list>
 #include <limits>
 #include <random>
+#include <algorithm>
 #include <string>
+#include <vector>
 
 #include "gravity_tower_fixture.hpp"
 #include "scenes/families.hpp"
@@ -755,16 +757,13 @@ TEST(StressQp, EndsTheInteriorPointPhaseEarlyOnlyFarAboveTheResidualAsked) {
 // residual above 0.1 and ends early, and the driver returns the scene
 // unchanged, as with the whole phase.
 TEST(StressQp, TheChecksEarlyEndStillFindsAGravityPrismThatStands) {
-  PrismParameters p;  // as the stress test's prism-5-gravity (scenes/families.cpp)
-  p.n = 5;
-  p.gravity = p.fix_bottom = true;
-  p.strut_mass = 0.05;
-  p.cable_mass = 0.005;
-  Structure base = make_regular_prism(p);
-  base.name = "prism-5-gravity";  // the trial's seed depends on it
+  const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
+  const auto base = std::find_if(bases.begin(), bases.end(),
+                                 [](const scenes::BaseScene& b) { return b.name == "prism-5-gravity"; });
+  ASSERT_NE(base, bases.end());
   constexpr int kOneThousandth = 0;  // the noise family's first level
   constexpr std::uint64_t kStressSeed = 1;
-  const Structure s = scenes::make_family_case(base, "noise", kOneThousandth, 0, kStressSeed);
+  const Structure s = scenes::make_family_case(base->scene, "noise", kOneThousandth, 0, kStressSeed);
   Equilibrium eq(s);
   const ForceScale scale = make_force_scale(s);
   const StressQpOptions check = standing_check_qp_options();
