@@ -115,6 +115,13 @@ struct StressQpOptions {
   // steps after the crossover, centred on it, reach them. For a caller that
   // only asks whether a geometry is a tensegrity; off by default.
   bool end_interior_point_when_settled = false;
+  // End projected Newton once the best point visited has lowered the
+  // regularised objective by no more than a relative 1e-3 over this many
+  // steps past the interior-point phase, or from the start without one
+  // (status Stalled; the best point and the polish follow as usual). For a caller that only asks whether a
+  // geometry is a tensegrity: on near-mechanisms the steps after the phase
+  // can go on to the step cap without lowering it. Negative: never.
+  int end_when_stalled_after = -1;
   bool IsValid() const;              // mu > 0, w >= 0, give_up_residual > 0, the rest finite, counts >= 0
 };
 
@@ -191,6 +198,8 @@ class StressQp {
     options_.polish_to_optimum = to_optimum;
     options_.max_polish_steps = max_steps;
   }
+  // Switches StressQpOptions::interior_point_after for the following solves.
+  void set_interior_point_after(int steps) { options_.interior_point_after = steps; }
 
   const ForceScale& scale() const { return scale_; }
   const StressQpOptions& options() const { return options_; }

@@ -32,6 +32,9 @@ struct ProjectedNewtonConstants {
   static constexpr int kPinRounds = 5;
   // Non-monotone full steps a cold start may take from a new best point.
   static constexpr int kNonmonotoneSteps = 8;
+  // StressQpOptions::end_when_stalled_after: the least relative fall of the
+  // best objective that counts as progress.
+  static constexpr double kStalledImprovement = 1e-3;
   // Sufficient-decrease fraction of the Armijo test.
   static constexpr double kArmijo = 1e-4;
   // Halvings along the projection arc and along the scaled gradient.

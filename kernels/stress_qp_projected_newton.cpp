@@ -15,6 +15,10 @@ void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
   // phase): from a warm start the optimum is near, and on degenerate scenes
   // the projection of a full step predicts its active set badly.
   st.nonmonotone_left = st.warm_start ? 0 : C::kNonmonotoneSteps;
+  // The best objective at the last step that lowered it by more than
+  // kStalledImprovement past the interior-point phase, and that step.
+  double progress_objective = kInf;
+  int progress_step = 0;
   for (int iteration = 0; st.ok; ++iteration) {
     if (!st.interior_point_used && options.interior_point_after >= 0 &&
         (iteration == options.interior_point_after || st.stuck)) {
@@ -33,6 +37,8 @@ void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
       st.nonmonotone_left = st.warm_start ? 0 : C::kNonmonotoneSteps;
       st.last_step_exact = false;
       st.stuck = false;
+      progress_objective = kInf;
+      progress_step = iteration;
     }
     const double objective = regularised_objective(st, s);
     const bool record = objective < st.best_objective;
@@ -77,6 +83,14 @@ void Impl::projected_newton(const StressQpOptions& options, SolveState& st) {
     if (st.last_step_exact && factorization_valid && held == factored_held) {
       st.settled = true;
       break;
+    }
+    if (options.end_when_stalled_after >= 0 && (st.interior_point_used || options.interior_point_after < 0)) {
+      if (st.best_objective < (1.0 - C::kStalledImprovement) * progress_objective) {
+        progress_objective = st.best_objective;
+        progress_step = iteration;
+      } else if (iteration - progress_step >= options.end_when_stalled_after) {
+        break;  // unsettled: Stalled, from the best point visited
+      }
     }
     if (iteration >= options.max_iterations) {
       st.hit_iteration_cap = true;

@@ -29,12 +29,13 @@ constexpr int kForcesPolishSteps = 2000;
 // and `forces` asks Ipopt first (kernels/stress_qp_ipopt.hpp).
 constexpr double kPolishToOptimumBelow = 1e-3;
 // Below this the driver's check whether a scene already stands asks Ipopt
-// too. Started the QP's default way (its interior-point phase after 20
-// steps), within the check's 100 steps the stress QP leaves the towers'
-// equilibria of `generate tower` (10 to 160 layers) at 1.6e-6 to 5.7e-6 and
-// the as-generated towers at 2.8e-4 to 4.7e-4, where Ipopt would only cost
-// time (20 s of the 160-layer tower's solve).
-constexpr double kIpoptInCheckBelow = 1e-4;
+// too: about the geometric middle between the equilibria of the towers of
+// `generate tower` without gravity (10 to 160 layers), which the check's
+// stress QP leaves at 1.6e-6 to 5.7e-6 and Ipopt then confirms, and the
+// as-generated towers, which do not stand and which it leaves at 6.3e-5
+// (40 layers) to 5.1e-4, where Ipopt only costs time (on the 40-layer tower
+// several times alternating-gn's whole solve).
+constexpr double kIpoptInCheckBelow = 2e-5;
 // Above kIpoptInCheckBelow the check's polish gets this many steps instead
 // of kForcesPolishSteps: a scene that stands is found at once (the stress
 // test's scorpion with a length ratio of 1,000, at 2.3e-4 after the QP,
@@ -59,6 +60,16 @@ constexpr int kCheckShortPolishSteps = 30;
 constexpr int kCheckInteriorPointAfter = 0;
 constexpr int kCheckGivesUpAfter = 5;
 constexpr double kCheckGivesUpAbove = 1e-2;
+// Past the phase the check's projected Newton ends once its best point has
+// stopped improving for this many steps (StressQpOptions::
+// end_when_stalled_after): on the as-generated towers without gravity, which
+// do not stand, the best point is the phase's own, and the steps on to the
+// cap of 100 cost several times alternating-gn's whole solve; on the towers'
+// equilibria, which stand, the best point comes at the phase (80 and 160
+// layers) or 11 steps past it (40 layers), below kIpoptInCheckBelow.
+constexpr int kCheckStalledAfter = 10;
+// StressQpOptions::interior_point_after: never.
+constexpr int kNoInteriorPoint = -1;
 // Projected-Newton steps of `forces`, whose answer is the point of the run:
 // on the equilibria of large near-mechanisms (the 40-layer tower without
 // gravity) the default cap stops it short. The driver's shortcut keeps the
@@ -177,6 +188,13 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   if (near_equilibrium && !v.ok) {
     const bool short_polish = effort == FixedGeometryEffort::Check && v.relative_residual > kIpoptInCheckBelow;
     qp.set_polish(true, short_polish ? kCheckShortPolishSteps : kForcesPolishSteps);
+    // After a QP that made no more progress, the check's polish starts from
+    // its best point: a second interior-point phase would only find the same
+    // neighbourhood again (on the as-generated 40-layer tower, most of the
+    // check's time). After one that met the KKT conditions the phase stays:
+    // on degenerate prisms its forces are ipopt's better start.
+    if (effort == FixedGeometryEffort::Check && qr.status == StressQpStatus::Stalled)
+      qp.set_interior_point_after(kNoInteriorPoint);
     StressQpResult polished = qp.solve(qr.sigma);
     const Verification pv = verify(part, part.positions, polished.sigma, options.tolerance);
     if (polished.status != StressQpStatus::NumericalFailure && pv.relative_residual <= v.relative_residual) {
@@ -356,6 +374,7 @@ StressQpOptions standing_check_qp_options() {
   o.give_up_after = kCheckGivesUpAfter;
   o.give_up_residual = kCheckGivesUpAbove;
   o.end_interior_point_when_settled = true;
+  o.end_when_stalled_after = kCheckStalledAfter;
   return o;
 }
 

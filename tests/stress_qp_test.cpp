@@ -656,9 +656,9 @@ TEST(StressQp, GivesUpFarFromATensegrityOnlyAboveTheResidualAsked) {
 
 // The driver's check (its interior-point phase first, then a give-up above
 // 1e-2) leaves a scene that stands untouched: the 10-layer 8-strut tower's
-// equilibrium without gravity, a near-mechanism on which the QP runs to its
-// step cap, gets the same forces, bit for bit, as the same QP without the
-// give-up.
+// equilibrium without gravity, a near-mechanism on which the QP runs past
+// the give-up's step, gets the same forces, bit for bit, as the same QP
+// without the give-up.
 TEST(StressQp, GivingUpLeavesAStandingTowerUntouched) {
   scenes::TowerParameters p;
   p.layers = 10;
@@ -682,6 +682,64 @@ TEST(StressQp, GivingUpLeavesAStandingTowerUntouched) {
   EXPECT_EQ(checked.iterations, full.iterations);
   EXPECT_EQ((checked.sigma - full.sigma).lpNorm<Eigen::Infinity>(), 0.0);
   EXPECT_LE(relative_residual(s, s.positions, checked.sigma), 1e-4);
+}
+
+// Past its interior-point phase the check's projected Newton ends once its
+// best point has stopped improving (end_when_stalled_after). On the
+// as-generated 40-layer tower without gravity, a near-mechanism that does not
+// stand and that the QP leaves near an equilibrium, the best point is the
+// phase's own: the stall ends the QP that many steps later instead of at its
+// step cap, at the step cap's residual, with a fraction of its factorizations.
+TEST(StressQp, TheChecksStallEndsTheStepsThatBringNothing) {
+  scenes::TowerParameters p;
+  p.layers = 40;
+  p.cables = 50 * p.layers;
+  p.noise = 0.0;  // as `generate tower` writes it
+  const Structure s = scenes::make_prism_tower(p);
+  Equilibrium eq(s);
+  const ForceScale scale = make_force_scale(s);
+  const StressQpOptions check = standing_check_qp_options();
+  ASSERT_GT(check.end_when_stalled_after, 0);
+  StressQpOptions to_the_cap = check;
+  to_the_cap.end_when_stalled_after = -1;
+  const StressQpResult stalled = StressQp(eq, scale, check).solve();
+  const StressQpResult capped = StressQp(eq, scale, to_the_cap).solve();
+  EXPECT_EQ(capped.status, StressQpStatus::IterationLimit) << capped.message;
+  EXPECT_EQ(capped.iterations, to_the_cap.max_iterations);
+  EXPECT_EQ(stalled.status, StressQpStatus::Stalled) << stalled.message;
+  EXPECT_FALSE(stalled.gave_up);
+  EXPECT_EQ(stalled.iterations, check.end_when_stalled_after);
+  // Near an equilibrium, where the check goes on to its polish (below 1e-3).
+  const double at_the_cap = relative_residual(s, s.positions, capped.sigma);
+  EXPECT_GT(at_the_cap, 1e-5);
+  EXPECT_LT(at_the_cap, 1e-3);
+  // The 90 further steps lower the objective by a relative 1e-12; the forces
+  // move along near-null directions of A meanwhile, and the largest node
+  // residual by 3 % (6.46e-5 against 6.25e-5).
+  constexpr double kSameResidual = 0.05;  // relative
+  EXPECT_NEAR(relative_residual(s, s.positions, stalled.sigma), at_the_cap, kSameResidual * at_the_cap);
+  EXPECT_LT(5 * stalled.factorizations, capped.factorizations);  // 54 against 336
+
+  // The check's polish after such a stall starts from the QP's best point
+  // without a second interior-point phase (solvers/solve_scene.cpp): on
+  // this tower, which does not stand, it ends near where the polish with the
+  // phase ends (4.9e-5 against 4.2e-5), with a quarter of its
+  // factorizations or fewer (14 against 60).
+  constexpr int kShortPolishSteps = 30;
+  auto polish_after_stall = [&](bool second_phase) {
+    StressQp qp(eq, scale, check);
+    const StressQpResult first = qp.solve();
+    qp.set_polish(true, kShortPolishSteps);
+    if (!second_phase) qp.set_interior_point_after(-1);
+    return qp.solve(first.sigma);
+  };
+  const StressQpResult warm = polish_after_stall(false);
+  const StressQpResult again = polish_after_stall(true);
+  const double polished = relative_residual(s, s.positions, again.sigma);
+  constexpr double kNearPolish = 0.25;  // relative
+  EXPECT_GT(polished, 1e-5);
+  EXPECT_NEAR(relative_residual(s, s.positions, warm.sigma), polished, kNearPolish * polished);
+  EXPECT_LT(4 * warm.factorizations, again.factorizations);
 }
 
 // The check gives up on a scene to be solved a few steps past its
