@@ -118,9 +118,10 @@ struct StressQpOptions {
   // End projected Newton once the best point visited has lowered the
   // regularised objective by no more than a relative 1e-3 over this many
   // steps past the interior-point phase, or from the start without one
-  // (status Stalled; the best point and the polish follow as usual). For a caller that only asks whether a
-  // geometry is a tensegrity: on near-mechanisms the steps after the phase
-  // can go on to the step cap without lowering it. Negative: never.
+  // (status Stalled; the best point and the polish follow as usual). For a
+  // caller that only asks whether a geometry is a tensegrity: on
+  // near-mechanisms the steps after the phase can go on to the step cap
+  // without lowering it. Negative: never.
   int end_when_stalled_after = -1;
   bool IsValid() const;              // mu > 0, w >= 0, give_up_residual > 0, the rest finite, counts >= 0
 };
