@@ -728,10 +728,9 @@ TEST(StressQp, TheChecksStallEndsTheStepsThatBringNothing) {
   constexpr int kShortPolishSteps = 30;
   auto polish_after_stall = [&](bool second_phase) {
     StressQp qp(eq, scale, check);
-    const StressQpResult first = qp.solve();
     qp.set_polish(true, kShortPolishSteps);
     if (!second_phase) qp.set_interior_point_after(-1);
-    return qp.solve(first.sigma);
+    return qp.solve(stalled.sigma);
   };
   const StressQpResult warm = polish_after_stall(false);
   const StressQpResult again = polish_after_stall(true);
