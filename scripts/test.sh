@@ -66,8 +66,11 @@ if [ "${TENSEGRITY_SKIP_SANITIZERS:-0}" != 1 ]; then
   # program runs, five minutes of the two cores under ASan): every bad input
   # still runs sanitized through `solve` and `forces` (CliBadInput), every
   # role still runs sanitized on the hostile files of CliHostileInput, and
-  # the parsers are fuzzed below.
-  long_sweeps='^ForceScaleGravity\.TowerOf40LayersWithoutGravityEquilibriumPassesForces$|^AlternatingSolver\.MarginOptionSetsTheSmallestCableForce$|^AlternatingSolver/StronglyPerturbedPrisms\.ConvergeExceptOnTheNamedScenesAndFailCleanly/alternating(_sdc)?( |$)|^AlternatingSolver\.FaithfulSchemeConvergesOnPerturbedCharacters$|^AlternatingSolver\.PerturbedOctahedraConverge$|^ForceScaleGravity\.EquilibriaOfTheMassFamilyStand$|^StressTestCommand\.ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads$|^cli_prestress_factor$|^schema_test$|^IpoptSolver\.Eq5NewtonStartVerifiesTheLargestGravityTower$|^StressQpIpopt\.FindsTheEquilibriumOfALargeNearMechanism$|^cli_standing_tower$|^Roles/CliHostileInputPerRole\.EveryBadInputClass/'
+  # the parsers are fuzzed below. The check's stall end against the QP's
+  # 100-step cap on the as-generated 40-layer tower (1 s in Release, 38 s
+  # under ASan) is left there too: the stall itself runs sanitized wherever
+  # a check stalls (StressQp.GivingUpLeavesAStandingTowerUntouched ends so).
+  long_sweeps='^ForceScaleGravity\.TowerOf40LayersWithoutGravityEquilibriumPassesForces$|^AlternatingSolver\.MarginOptionSetsTheSmallestCableForce$|^AlternatingSolver/StronglyPerturbedPrisms\.ConvergeExceptOnTheNamedScenesAndFailCleanly/alternating(_sdc)?( |$)|^AlternatingSolver\.FaithfulSchemeConvergesOnPerturbedCharacters$|^AlternatingSolver\.PerturbedOctahedraConverge$|^ForceScaleGravity\.EquilibriaOfTheMassFamilyStand$|^StressTestCommand\.ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads$|^cli_prestress_factor$|^schema_test$|^IpoptSolver\.Eq5NewtonStartVerifiesTheLargestGravityTower$|^StressQpIpopt\.FindsTheEquilibriumOfALargeNearMechanism$|^cli_standing_tower$|^StressQp\.TheChecksStallEndsTheStepsThatBringNothing$|^Roles/CliHostileInputPerRole\.EveryBadInputClass/'
   (cd build-asan &&
      ASAN_OPTIONS=detect_leaks=1:exitcode=23:strict_string_checks=1:detect_stack_use_after_return=1 \
      UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1:exitcode=23 \
