@@ -40,8 +40,8 @@ constexpr double kIpoptInCheckBelow = 2e-5;
 // of kForcesPolishSteps: a scene that stands is found at once (the stress
 // test's scorpion with a length ratio of 1,000, at 2.3e-4 after the QP,
 // stands after 0.013 s of polish), while on the as-generated towers, which
-// do not stand, the polish creeps (on the 160-layer tower without gravity
-// 17 s to 2e-5 with kForcesPolishSteps, 5 s with these).
+// do not stand, the polish creeps through all of kForcesPolishSteps (on the
+// 160-layer tower without gravity, to 2e-5 in seconds).
 constexpr int kCheckShortPolishSteps = 30;
 // The driver's check starts with the stress QP's interior-point phase
 // instead of reaching it after the default 20 projected-Newton steps: from a

@@ -729,7 +729,8 @@ TEST(StressQp, TheChecksStallEndsTheStepsThatBringNothing) {
   auto polish_after_stall = [&](bool second_phase) {
     StressQp qp(eq, scale, check);
     qp.set_polish(true, kShortPolishSteps);
-    if (!second_phase) qp.set_interior_point_after(-1);
+    constexpr int kNoInteriorPoint = -1;  // StressQpOptions::interior_point_after: never
+    if (!second_phase) qp.set_interior_point_after(kNoInteriorPoint);
     return qp.solve(stalled.sigma);
   };
   const StressQpResult warm = polish_after_stall(false);
