@@ -48,23 +48,29 @@ NormalMatrix::NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const E
     j_column_begin_[b + 1] = static_cast<int>(j_blocks_.size());
   }
 
-  // Node graph of N: a ~ c when both meet some column block b of J (J J^T).
-  // That includes A's node pairs (an element's free ends are J-adjacent) and
-  // every diagonal (J has all diagonal blocks). J's block pattern is
-  // symmetric, so the neighbours of a are the rows of the columns b of a.
-  std::vector<int> adjacent_begin(nodes_ + 1, 0), adjacent, mark(nodes_, -1);
-  for (int a = 0; a < nodes_; ++a) {
+  // Node graph of N: a ~ c when both meet some column block b of J (J J^T),
+  // or are the free ends of one element (A W A^T; with J = df/dq those are
+  // J-adjacent already, but not with a block-diagonal J). J's block pattern
+  // is symmetric, so the neighbours of a are the rows of the columns b of a.
+  std::vector<std::vector<int>> neighbours(nodes_);
+  for (int a = 0; a < nodes_; ++a)
     for (int k1 = j_column_begin_[a]; k1 < j_column_begin_[a + 1]; ++k1) {
       const int b = j_blocks_[k1].node;
-      for (int k2 = j_column_begin_[b]; k2 < j_column_begin_[b + 1]; ++k2) {
-        const int c = j_blocks_[k2].node;
-        if (mark[c] != a) {
-          mark[c] = a;
-          adjacent.push_back(c);
-        }
-      }
+      for (int k2 = j_column_begin_[b]; k2 < j_column_begin_[b + 1]; ++k2) neighbours[a].push_back(j_blocks_[k2].node);
     }
-    std::sort(adjacent.begin() + adjacent_begin[a], adjacent.end());
+  for (int e = 0; e < m; ++e) {
+    const int begin = A.outerIndexPtr()[e], end = A.outerIndexPtr()[e + 1];
+    if (end - begin != 6) continue;  // fewer than two free ends
+    const int a = A.innerIndexPtr()[begin] / 3, c = A.innerIndexPtr()[begin + 3] / 3;
+    neighbours[a].push_back(c);
+    neighbours[c].push_back(a);
+  }
+  std::vector<int> adjacent_begin(nodes_ + 1, 0), adjacent;
+  for (int a = 0; a < nodes_; ++a) {
+    std::vector<int>& list = neighbours[a];
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+    adjacent.insert(adjacent.end(), list.begin(), list.end());
     adjacent_begin[a + 1] = static_cast<int>(adjacent.size());
   }
 
@@ -165,7 +171,8 @@ NormalMatrix::NormalMatrix(const SparseMatrix& J, const SparseMatrix& A, const E
 }
 
 bool NormalMatrix::assemble_and_factorize(const SparseMatrix& J, double wq, const SparseMatrix& A,
-                                          const Eigen::VectorXd& ws, double norm_weight, double lambda_relative) {
+                                          const Eigen::VectorXd& ws, double norm_weight, double lambda_relative,
+                                          double norm_shift) {
   factor_.set_zero();
   const double* jv = J.valuePtr();
   for (const JjEntry& p : jj_plan_) {
@@ -201,7 +208,7 @@ bool NormalMatrix::assemble_and_factorize(const SparseMatrix& J, double wq, cons
   for (int slot : diagonal_slot_) trace += factor_.block(slot).trace();
   const double lambda = lambda_relative * (trace > 0.0 ? trace / size_ : 1.0);
   for (int slot : diagonal_slot_) factor_.block(slot).diagonal().array() += lambda;
-  if (has_norm_) factor_.block(norm_diagonal_).diagonal() << norm_diagonal + lambda, 1.0, 1.0;
+  if (has_norm_) factor_.block(norm_diagonal_).diagonal() << norm_diagonal + lambda + norm_shift, 1.0, 1.0;
   return factor_.factorize();
 }
 

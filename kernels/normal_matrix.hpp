@@ -34,10 +34,11 @@ class NormalMatrix {
 
   // Assembles with weight wq on every J column, ws[e] on force column e and
   // the normalisation entry norm_weight, adds lambda_relative times the mean
-  // diagonal, and factorizes. Returns false when the factorization fails or
-  // N is not positive definite. Does not allocate.
+  // diagonal, and norm_shift to the normalisation's diagonal entry (which J
+  // does not reach), and factorizes. Returns false when the factorization
+  // fails or N is not positive definite. Does not allocate.
   bool assemble_and_factorize(const SparseMatrix& J, double wq, const SparseMatrix& A, const Eigen::VectorXd& ws,
-                              double norm_weight, double lambda_relative);
+                              double norm_weight, double lambda_relative, double norm_shift = 0.0);
 
   // y = N^{-1} rhs, both in the original numbering. Does not allocate.
   void solve(const Eigen::VectorXd& rhs, Eigen::VectorXd& y);

@@ -58,6 +58,26 @@ void Impl::build(const SparseMatrix& A, const ForceScale& scale,
     }
     a_col_start[j + 1] = static_cast<int>(a_row.size());
   }
+  node_space = o.node_space;
+  if (node_space) build_node_space(A);
+  else build_force_space();
+  factorization_valid = false;
+  held.assign(m, 0);
+  factored_held.assign(m, 0);
+
+  for (Eigen::VectorXd* v : {&s, &g, &d, &trial, &step, &rhs, &lin_res, &op_out, &masked, &best_s, &cg_x, &cg_r,
+                             &cg_z, &cg_p, &cg_q})
+    v->setZero(m);
+  correction.setZero(m);
+  aug_rhs.setZero(m + 1);
+  aug_sol.setZero(m + 1);
+  r.setZero(rows);
+  a_step.setZero(rows);
+}
+
+// K's pattern, the pairs of A values behind each of its values, and its
+// symbolic analysis.
+void Impl::build_force_space() {
   // Row lists of A: which columns (and value offsets) touch each equation.
   std::vector<int> row_start(rows + 1, 0);
   for (int r : a_row) ++row_start[r + 1];
@@ -128,17 +148,58 @@ void Impl::build(const SparseMatrix& A, const ForceScale& scale,
   diag_n.setZero(m);
 
   ldlt.analyze(K);
-  factorization_valid = false;
-  held.assign(m, 0);
-  factored_held.assign(m, 0);
+}
 
-  for (Eigen::VectorXd* v : {&s, &g, &d, &trial, &step, &rhs, &lin_res, &op_out, &masked, &best_s, &cg_x, &cg_r,
-                             &cg_z, &cg_p, &cg_q})
-    v->setZero(m);
-  aug_rhs.setZero(m + 1);
-  aug_sol.setZero(m + 1);
-  r.setZero(rows);
-  a_step.setZero(rows);
+// M's node-block pattern and its analysis (NormalMatrix); J = I in 3x3 blocks.
+void Impl::build_node_space(const SparseMatrix& A) {
+  std::vector<Eigen::Triplet<double>> identity;
+  identity.reserve(3 * static_cast<std::size_t>(rows));
+  for (int block = 0; 3 * block + 2 < rows; ++block)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) identity.emplace_back(3 * block + i, 3 * block + j, i == j ? 1.0 : 0.0);
+  node_identity.resize(rows, rows);
+  node_identity.setFromTriplets(identity.begin(), identity.end());
+  node_matrix = std::make_unique<NormalMatrix>(node_identity, A, normalised ? &c : nullptr);
+  node_weight.setZero(m);
+  held_inverse.setZero(m);
+  node_back.setZero(m);
+  node_rhs.setZero(node_matrix->size());
+  node_sol.setZero(node_matrix->size());
+}
+
+// N_ii = |A_i|^2 + w^2 c_i^2 + mu, read from A's values directly.
+void Impl::refresh_node_space(const SparseMatrix& A) {
+  node_a = &A;
+  const double* a = A.valuePtr();
+  diag_n.resize(m);
+  for (int j = 0; j < m; ++j) {
+    double v = mu + w2 * c[j] * c[j];
+    for (int p = a_col_start[j]; p < a_col_start[j + 1]; ++p) v += a[a_value[p]] * a[a_value[p]];
+    diag_n[j] = v;
+  }
+  factorization_valid = false;
+}
+
+// M = I + B diag(node_weight) B^T, factorized.
+bool Impl::factorize_node_space() {
+  if (!node_weight.allFinite()) return false;
+  constexpr double kIdentityWeight = 1.0;
+  constexpr double kNoDiagonalShift = 0.0;
+  return node_matrix->assemble_and_factorize(node_identity, kIdentityWeight, *node_a, node_weight, std::sqrt(w2),
+                                             kNoDiagonalShift, kIdentityWeight);
+}
+
+// x = D^{-1} (b - B^T M^{-1} B D^{-1} b) on the free set, b_i / N_ii on the held one.
+void Impl::apply_node_space_inverse(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  const SparseMatrix& A = *node_a;
+  const double w = std::sqrt(w2);
+  node_back = node_weight.cwiseProduct(b);
+  node_rhs.head(rows).noalias() = A * node_back;
+  if (normalised) node_rhs[rows] = w * c.dot(node_back);
+  node_matrix->solve(node_rhs, node_sol);
+  node_back.noalias() = A.transpose() * node_sol.head(rows);
+  if (normalised) node_back += (w * node_sol[rows]) * c;
+  x = held_inverse.cwiseProduct(b) + node_weight.cwiseProduct(b - node_back);
 }
 
 bool Impl::pattern_matches(const SparseMatrix& A) const {
@@ -158,6 +219,10 @@ bool Impl::pattern_matches(const SparseMatrix& A) const {
 // Values of K for an empty held set and the diagonal of N, from A's current
 // values. False when the geometry produced non-finite values.
 bool Impl::refresh(const SparseMatrix& A) {
+  if (node_space) {
+    refresh_node_space(A);
+    return diag_n.allFinite();
+  }
   const double* a = A.valuePtr();
   const int nnz = static_cast<int>(base.size());
   bool finite = true;
@@ -181,6 +246,15 @@ bool Impl::refresh(const SparseMatrix& A) {
 }
 
 bool Impl::factorize(const std::vector<char>& hold) {
+  if (node_space) {
+    for (int i = 0; i < m; ++i) {
+      node_weight[i] = hold[i] ? 0.0 : 1.0 / mu;
+      held_inverse[i] = hold[i] ? 1.0 / diag_n[i] : 0.0;
+    }
+    factored_held = hold;
+    factorization_valid = factorize_node_space();
+    return factorization_valid;
+  }
   double* values = K.valuePtr();
   const int nnz = static_cast<int>(base.size());
   for (int k = 0; k < nnz; ++k) {
@@ -221,10 +295,7 @@ void Impl::apply_modified(const Eigen::VectorXd& x, const SparseMatrix& A,
 // A^T A, damped only by mu, would otherwise cost digits of accuracy.
 template <class Apply>
 bool Impl::refined_solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, int refinements, Apply apply) {
-  aug_rhs.head(m) = b;
-  aug_rhs[m] = 0.0;
-  aug_sol = ldlt.solve(aug_rhs);
-  x = aug_sol.head(m);
+  apply_preconditioner(b, x);
   const double b_norm = b.lpNorm<Eigen::Infinity>();
   double previous = kInf;
   for (int refinement = 0; refinement < refinements; ++refinement) {
@@ -236,10 +307,8 @@ bool Impl::refined_solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, int refin
         res_norm > RefinementConstants::kSlowestContraction * previous)
       break;
     previous = res_norm;
-    aug_rhs.head(m) = lin_res;
-    aug_rhs[m] = 0.0;
-    aug_sol = ldlt.solve(aug_rhs);
-    x += aug_sol.head(m);
+    apply_preconditioner(lin_res, correction);
+    x += correction;
   }
   return x.allFinite();
 }
@@ -251,6 +320,12 @@ bool Impl::solve_modified(const SparseMatrix& A, const Eigen::VectorXd& b,
 }
 
 bool Impl::factorize_with_diagonal(const Eigen::VectorXd& extra) {
+  if (node_space) {
+    node_weight = (extra.array() + mu).inverse().matrix();
+    held_inverse.setZero();
+    factorization_valid = false;  // not the factorization of a held set
+    return factorize_node_space();
+  }
   double* values = K.valuePtr();
   const int nnz = static_cast<int>(base.size());
   for (int k = 0; k < nnz; ++k) {
@@ -277,6 +352,10 @@ void Impl::residual(const SparseMatrix& A, const Eigen::VectorXd* fg,
 }
 
 void Impl::apply_preconditioner(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  if (node_space) {
+    apply_node_space_inverse(b, x);
+    return;
+  }
   aug_rhs.head(m) = b;
   aug_rhs[m] = 0.0;
   aug_sol = ldlt.solve(aug_rhs);

@@ -7,6 +7,9 @@
 #include <limits>
 #include <vector>
 
+#include <memory>
+
+#include "kernels/normal_matrix.hpp"
 #include "kernels/pattern_ldlt.hpp"
 #include "kernels/stress_qp.hpp"
 
@@ -135,6 +138,17 @@ struct Impl {
   Eigen::VectorXd diag_n;  // N_ii = |A_i|^2 + w^2 c_i^2 + mu
 
   PatternLdlt ldlt;  // K's pattern analysed once per topology
+
+  // StressQpOptions::node_space: K is never formed; M = I + B D^{-1} B^T is
+  // factorized instead (NormalMatrix with J = I, weights 1/D_e).
+  bool node_space = false;
+  const SparseMatrix* node_a = nullptr;  // A of the current solve (refresh)
+  std::unique_ptr<NormalMatrix> node_matrix;
+  SparseMatrix node_identity;            // 3x3 identity blocks: M's I
+  Eigen::VectorXd node_weight;           // 1/D_e on free forces, 0 on held ones
+  Eigen::VectorXd held_inverse;          // 1/N_ii on held forces, 0 on free ones
+  Eigen::VectorXd node_rhs, node_sol;    // B D^{-1} b and M^{-1} of it (rows (+1))
+  Eigen::VectorXd node_back;             // B^T M^{-1} B D^{-1} b (m)
   bool factorization_valid = false;
   std::vector<char> held, factored_held;  // W of the current step / of the factorization
 
@@ -144,6 +158,7 @@ struct Impl {
   Eigen::VectorXd s, g, d, trial, step, rhs, lin_res, op_out, masked, best_s;
   Eigen::VectorXd cg_x, cg_r, cg_z, cg_p, cg_q;
   Eigen::VectorXd aug_rhs, aug_sol;
+  Eigen::VectorXd correction;  // a refinement's correction (m)
   Eigen::VectorXd r, a_step;  // equation-sized
 
   // Set-up and linear algebra (stress_qp.cpp).
@@ -159,6 +174,13 @@ struct Impl {
   bool solve_modified(const SparseMatrix& A, const Eigen::VectorXd& b, Eigen::VectorXd& x);
   // x = K^{-1} [b; 0] without refinement (a fixed linear operator: CG's preconditioner).
   void apply_preconditioner(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+  void build_force_space();
+  // Node-space set-up, values and factorization (StressQpOptions::node_space).
+  void build_node_space(const SparseMatrix& A);
+  void refresh_node_space(const SparseMatrix& A);
+  bool factorize_node_space();
+  // x = M-based K^{-1} [b; 0], first m entries (Woodbury).
+  void apply_node_space_inverse(const Eigen::VectorXd& b, Eigen::VectorXd& x);
   template <class Apply>
   bool refined_solve(const Eigen::VectorXd& b, Eigen::VectorXd& x, int refinements, Apply apply);
   void residual(const SparseMatrix& A, const Eigen::VectorXd* fg, const Eigen::VectorXd& x,

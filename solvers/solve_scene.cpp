@@ -130,8 +130,9 @@ SolveResult unchanged_part(const Structure& part, Eigen::VectorXd forces, Status
 
 // The stress QP's effort in forces_at_own_geometry.
 enum class FixedGeometryEffort {
-  Check,    // the driver's check whether a scene already stands: the default cap, giving up far from one
-  Command,  // `forces`, whose answer is the point of the run: kForcesCommandIterations
+  Check,       // the driver's check whether a scene already stands: the default cap, giving up far from one
+  IpoptStart,  // the same, through K instead of the node space: ipopt's start (standing_check_forces)
+  Command,     // `forces`, whose answer is the point of the run: kForcesCommandIterations
 };
 
 // The stress QP at the part's own geometry: Converged when it verifies,
@@ -152,6 +153,10 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
     qp_options.max_iterations = kForcesCommandIterations;
   } else {
     qp_options = standing_check_qp_options();  // certifies too
+    // On degenerate prisms ipopt's run from the scene depends on its start,
+    // and K's rounding of the check's QP is the start measured there: with
+    // the node space's, ipopt verified 6 fewer of the stress test's trials.
+    if (effort == FixedGeometryEffort::IpoptStart) qp_options.node_space = false;
   }
   StressQp qp(eq, scale, qp_options);
   StressQpResult qr = qp.solve();
@@ -186,14 +191,14 @@ SolveResult forces_at_own_geometry(const Structure& part, const SolveOptions& op
   // the optimum, an active-set method, finishes from there. Far from one
   // (a scene to be solved) it would only cost time.
   if (near_equilibrium && !v.ok) {
-    const bool short_polish = effort == FixedGeometryEffort::Check && v.relative_residual > kIpoptInCheckBelow;
+    const bool short_polish = effort != FixedGeometryEffort::Command && v.relative_residual > kIpoptInCheckBelow;
     qp.set_polish(true, short_polish ? kCheckShortPolishSteps : kForcesPolishSteps);
     // After a QP that made no more progress, the check's polish starts from
     // its best point: a second interior-point phase would only find the same
     // neighbourhood again (on the as-generated 40-layer tower, most of the
     // check's time). After one that met the KKT conditions the phase stays:
     // on degenerate prisms its forces are ipopt's better start.
-    if (effort == FixedGeometryEffort::Check && qr.status == StressQpStatus::Stalled)
+    if (effort != FixedGeometryEffort::Command && qr.status == StressQpStatus::Stalled)
       qp.set_interior_point_after(kNoInteriorPoint);
     StressQpResult polished = qp.solve(qr.sigma);
     const Verification pv = verify(part, part.positions, polished.sigma, options.tolerance);
@@ -375,12 +380,15 @@ StressQpOptions standing_check_qp_options() {
   o.give_up_residual = kCheckGivesUpAbove;
   o.end_interior_point_when_settled = true;
   o.end_when_stalled_after = kCheckStalledAfter;
+  // Its set-up and factorizations are what the check costs: through the
+  // node space both cost a fraction of K's on towers (docs/BACKENDS.md).
+  o.node_space = true;
   return o;
 }
 
 Eigen::VectorXd standing_check_forces(const Structure& part, const SolveOptions& options) {
   bool gave_up = false;
-  SolveResult checked = forces_at_own_geometry(part, options, FixedGeometryEffort::Check, &gave_up);
+  SolveResult checked = forces_at_own_geometry(part, options, FixedGeometryEffort::IpoptStart, &gave_up);
   if (gave_up || checked.forces.size() != part.num_elements() || !checked.forces.allFinite())
     return Eigen::VectorXd();
   return std::move(checked.forces);

@@ -14,7 +14,9 @@ namespace tensegrity {
 StressQpOptions standing_check_qp_options();
 
 // The check's forces at the part's own geometry (N) where its stress QP ran to
-// its end, whether or not they verify; empty where it gave up.
+// its end, whether or not they verify; empty where it gave up. Solved through
+// K (node_space off), whose rounding ipopt's start on degenerate scenes was
+// measured with.
 Eigen::VectorXd standing_check_forces(const Structure& part, const SolveOptions& options);
 
 }  // namespace tensegrity

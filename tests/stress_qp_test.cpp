@@ -722,9 +722,10 @@ TEST(StressQp, TheChecksStallEndsTheStepsThatBringNothing) {
 
   // The check's polish after such a stall starts from the QP's best point
   // without a second interior-point phase (solvers/solve_scene.cpp): on
-  // this tower, which does not stand, it ends near where the polish with the
-  // phase ends (4.9e-5 against 4.2e-5), with a quarter of its
-  // factorizations or fewer (14 against 60).
+  // this tower, which does not stand, the phase would cost as many
+  // factorizations as the whole polish without it (31 against 32), and the
+  // steps after it meet their KKT test at a residual ten times higher
+  // (4.7e-4 against 4.9e-5), uncertified: a tiny gradient on a near-mechanism.
   constexpr int kShortPolishSteps = 30;
   auto polish_after_stall = [&](bool second_phase) {
     StressQp qp(eq, scale, check);
@@ -735,11 +736,12 @@ TEST(StressQp, TheChecksStallEndsTheStepsThatBringNothing) {
   };
   const StressQpResult warm = polish_after_stall(false);
   const StressQpResult again = polish_after_stall(true);
-  const double polished = relative_residual(s, s.positions, again.sigma);
-  constexpr double kNearPolish = 0.25;  // relative
+  const double polished = relative_residual(s, s.positions, warm.sigma);
+  constexpr double kSameResidualAsBefore = 0.25;  // relative, against the stalled QP's own
+  constexpr double kPhaseWorseBy = 5.0;
   EXPECT_GT(polished, 1e-5);
-  EXPECT_NEAR(relative_residual(s, s.positions, warm.sigma), polished, kNearPolish * polished);
-  EXPECT_LT(4 * warm.factorizations, again.factorizations);
+  EXPECT_LE(polished, (1.0 + kSameResidualAsBefore) * at_the_cap);
+  EXPECT_GT(relative_residual(s, s.positions, again.sigma), kPhaseWorseBy * polished);
 }
 
 // The check gives up on a scene to be solved a few steps past its
