@@ -39,6 +39,8 @@
 #   towers-as-generated.md  alternating-gn, eq5-newton and ipopt through `solve` on the
 #                  towers as generated (L = 10, 40, 160, with and without gravity;
 #                  FIGURES_AS_GENERATED_TOWER_LAYERS, FIGURES_AS_GENERATED_TIME_LIMIT s, default 120)
+#   check-qp.md    the stress QP of the driver's check with K and through the node
+#                  space on the towers (stress_qp_bench, medians of 5)
 #   two-cores.md   batch and stress-test with --measure-speedup on mixed sets that
 #                  include Ipopt solves (one worker, then two; 3 runs each)
 #   ipopt-auto-stress.md  ipopt start=scene against start=auto over the stress
@@ -64,7 +66,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers towers_as_generated prestress_factor two_cores; ipopt_auto_stress,
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores; ipopt_auto_stress,
 # ipopt_default_stress and nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
@@ -76,9 +78,9 @@ py=/usr/bin/python3
 export LC_ALL=C
 
 if [ "${FIGURES_NO_BUILD:-0}" != 1 ]; then
-  echo "== build (Release): tensegrity, compare_bench, link_stiffness_test, tensegrity_python"
+  echo "== build (Release): tensegrity, compare_bench, eq5_newton_bench, stress_qp_bench, link_stiffness_test, tensegrity_python"
   cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
-  cmake --build "$build" -j"$(nproc --all)" --target tensegrity compare_bench link_stiffness_test tensegrity_python >/dev/null
+  cmake --build "$build" -j"$(nproc --all)" --target tensegrity compare_bench eq5_newton_bench stress_qp_bench link_stiffness_test tensegrity_python >/dev/null
 fi
 tg=$build/tensegrity
 cb=$build/bench/compare_bench
@@ -1391,6 +1393,53 @@ nlopt_variants() {
 # times. The batch set mixes what users solve: the reference scenes, the
 # characters as built and generated towers with node noise (gravity towers of
 # 4 to 80 layers, plain 10-layer towers that start far from equilibrium).
+# The stress QP of the driver's check whether a scene already stands, with K
+# and through the node space, side by side on the towers (stress_qp_bench,
+# medians of 5): the set-up and the solve at the scene's own geometry.
+check_qp() {
+  local qb="$build/bench/stress_qp_bench"
+  [ -x "$qb" ] || { echo "docs-figures: $qb missing" >&2; exit 1; }
+  step "the check's stress QP with K and through the node space (medians of 5)"
+  local cmd="$qb --benchmark_repetitions=5 --benchmark_out=check-qp.json --benchmark_out_format=json"
+  header "$out/check-qp.md" "The check's stress QP: K against the node space" "$cmd"
+  "$qb" --benchmark_repetitions=5 --benchmark_out="$work/check-qp.json" --benchmark_out_format=json \
+    >/dev/null 2>"$work/check-qp.log"
+  "$py" - "$work/check-qp.json" >>"$out/check-qp.md" <<'EOF2'
+import json, sys
+from collections import defaultdict
+runs = defaultdict(list)
+for b in json.load(open(sys.argv[1]))["benchmarks"]:
+    if b.get("run_type") != "iteration":
+        continue
+    _, scene, algebra = b["name"].split("/")[:3]
+    runs[(scene, algebra)].append(b)
+def median(values):
+    v = sorted(values)
+    return v[len(v) // 2]
+print("Scenes: the gravity tower family (`generate tower --struts-per-layer 8 --cables 50L --gravity`,")
+print("alternating-gn's equilibrium with 1 % node noise, seed 1), `generate tower` as written without")
+print("gravity, and alternating-gn's equilibria of those. One StressQp built and solved with the")
+print("check's options (`standing_check_qp_options`), with K (`k`) and through the node space")
+print("(`node-space`, the check's). Wall milliseconds, medians of 5; factorizations, projected-Newton")
+print("steps and the forces' relative residual from the last run.")
+print()
+print("| scene | elements | K ms | node space ms | speed-up | factorizations K / node space | steps | relative residual K / node space | gave up |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|:-:|")
+scenes = []
+for s, _ in runs:
+    if s not in scenes:
+        scenes.append(s)
+for scene in scenes:
+    k, n = runs[(scene, "k")], runs[(scene, "node-space")]
+    km, nm = median([x["real_time"] for x in k]), median([x["real_time"] for x in n])
+    layers = int(scene.split("-")[1])
+    kl, nl = k[-1], n[-1]
+    print(f"| {scene} | {58 * layers:,} | {km:.3g} | {nm:.3g} | {km / nm:.2f} | {kl['factorizations']:.0f} / {nl['factorizations']:.0f} | "
+          f"{kl['iterations']:.0f} / {nl['iterations']:.0f} | {kl['relative_residual']:.3g} / {nl['relative_residual']:.3g} | "
+          f"{'yes' if nl['gave_up'] else 'no'} |")
+EOF2
+}
+
 two_cores() {
   step "two-cores.md: batch and stress-test, one worker then two (3 runs each)"
   local set="$work/two-cores-set" rounds=3
@@ -1453,7 +1502,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers towers_as_generated prestress_factor two_cores}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores}; do
   "$section"
 done
 step "done; figures in $out"
