@@ -1037,17 +1037,10 @@ eq5_newton() {
     --benchmark_filter='^(alternating-gn|eq5-newton|ipopt-warm)/' --benchmark_repetitions=3 \
     --benchmark_out="$work/eq5-newton.json" --benchmark_out_format=json >/dev/null 2>"$work/eq5-newton.log"
   "$py" - "$work/eq5-newton.json" >>"$out/eq5-newton.md" <<'EOF2'
-import json, sys
-from collections import defaultdict
-runs = defaultdict(list)
-for b in json.load(open(sys.argv[1]))["benchmarks"]:
-    if b.get("run_type") != "iteration":
-        continue
-    backend, scene = b["name"].split("/")[:2]
-    runs[(scene, backend)].append(b)
-def median(values):
-    v = sorted(values)
-    return v[len(v) // 2]
+import sys
+sys.path.insert(0, "bench/scripts")
+from bench_runs import iteration_runs, median
+runs = iteration_runs(sys.argv[1], lambda parts: (parts[1], parts[0]))  # (scene, backend)
 print("Scenes: `generate tower --layers L --struts-per-layer 8 --cables 50L --gravity`, solved to an")
 print("equilibrium by alternating-gn, then 1 % node noise (seed 1); `tower-80s-500c-gravity-noise2` is")
 print("`data/bench/tower-80s-500c-gravity.scene.json` with 2 % noise. `ipopt-warm` is")
@@ -1405,17 +1398,10 @@ check_qp() {
   "$qb" --benchmark_repetitions=5 --benchmark_out="$work/check-qp.json" --benchmark_out_format=json \
     >/dev/null 2>"$work/check-qp.log"
   "$py" - "$work/check-qp.json" >>"$out/check-qp.md" <<'EOF2'
-import json, sys
-from collections import defaultdict
-runs = defaultdict(list)
-for b in json.load(open(sys.argv[1]))["benchmarks"]:
-    if b.get("run_type") != "iteration":
-        continue
-    _, scene, algebra = b["name"].split("/")[:3]
-    runs[(scene, algebra)].append(b)
-def median(values):
-    v = sorted(values)
-    return v[len(v) // 2]
+import sys
+sys.path.insert(0, "bench/scripts")
+from bench_runs import iteration_runs, median
+runs = iteration_runs(sys.argv[1], lambda parts: (parts[1], parts[2]))  # (scene, linear algebra)
 print("Scenes: the gravity tower family (`generate tower --struts-per-layer 8 --cables 50L --gravity`,")
 print("alternating-gn's equilibrium with 1 % node noise, seed 1), `generate tower` as written without")
 print("gravity, and alternating-gn's equilibria of those. One StressQp built and solved with the")
