@@ -7,7 +7,9 @@
 // column e of A (Equilibrium::A) and the optional last row holds the force
 // normalisation c^T sigma = t with weight w_n (ForceScale). N has the size of
 // the equations (3 n_free, + 1 with the normalisation) and the node-adjacency
-// pattern, whatever the number of elements.
+// pattern, whatever the number of elements. The stress QP's node space
+// (StressQpOptions::node_space) is the same matrix with J = I in 3x3 blocks,
+// w_e = 1/D_e and the normalisation's diagonal shifted by 1.
 //
 // The pattern is built once per topology at the level of 3x3 node blocks
 // (J J^T couples nodes two elements apart), ordered by AMD on the node graph,

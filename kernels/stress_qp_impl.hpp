@@ -5,9 +5,8 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <limits>
-#include <vector>
-
 #include <memory>
+#include <vector>
 
 #include "kernels/normal_matrix.hpp"
 #include "kernels/pattern_ldlt.hpp"

@@ -69,9 +69,10 @@ void expect_same_answer(const Case& c, StressQpOptions options) {
               kSameObjective * std::max(with_k.objective, kRoundingObjective));
   // The forces (measured: 1e-12 relative or closer, 2e-10 on the tower as generated).
   constexpr double kSameForces = 1e-8;  // relative to |sigma|_inf
-  if (c.forces_determined_without_mu || !options.polish_to_optimum)
+  if (c.forces_determined_without_mu || !options.polish_to_optimum) {
     EXPECT_LE((through_nodes.sigma - with_k.sigma).lpNorm<Eigen::Infinity>(),
               kSameForces * with_k.sigma.lpNorm<Eigen::Infinity>());
+  }
 }
 
 TEST_P(NodeSpace, ProjectedNewtonAndPolishAgreeWithK) {
