@@ -1382,10 +1382,6 @@ nlopt_variants() {
   } >>"$out/nlopt-variants.md"
 }
 
-# Both cores: `batch` and `stress-test` with --measure-speedup, each run three
-# times. The batch set mixes what users solve: the reference scenes, the
-# characters as built and generated towers with node noise (gravity towers of
-# 4 to 80 layers, plain 10-layer towers that start far from equilibrium).
 # The stress QP of the driver's check whether a scene already stands, with K
 # and through the node space, side by side on the towers (stress_qp_bench,
 # medians of 5): the set-up and the solve at the scene's own geometry.
@@ -1426,6 +1422,10 @@ for scene in scenes:
 EOF2
 }
 
+# Both cores: `batch` and `stress-test` with --measure-speedup, each run three
+# times. The batch set mixes what users solve: the reference scenes, the
+# characters as built and generated towers with node noise (gravity towers of
+# 4 to 80 layers, plain 10-layer towers that start far from equilibrium).
 two_cores() {
   step "two-cores.md: batch and stress-test, one worker then two (3 runs each)"
   local set="$work/two-cores-set" rounds=3
