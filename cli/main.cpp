@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "cli/commands.hpp"
+#include "kernels/blas_threads.hpp"
 #include "kernels/process_memory.hpp"
 #include "reports/output.hpp"
 #include "model/errors.hpp"
@@ -10,6 +11,7 @@
 int main(int argc, char** argv) {
   using namespace tensegrity;
   keep_freed_memory_in_process();
+  end_blas_thread_pool();  // one BLAS thread per solve; its idle pool would spin on the other core
   CLI::App app{"tensegrity: form finding for tensegrity structures"};
   app.require_subcommand(1);
   cli::CommandRunner run;

@@ -18,4 +18,11 @@ void use_one_blas_thread() {
   });
 }
 
+void end_blas_thread_pool() {
+  use_one_blas_thread();
+  // OpenBLAS's own handler before fork(); it joins the pool's threads.
+  using Shutdown = int (*)();
+  if (auto shutdown = reinterpret_cast<Shutdown>(::dlsym(RTLD_DEFAULT, "blas_thread_shutdown_"))) shutdown();
+}
+
 }  // namespace tensegrity

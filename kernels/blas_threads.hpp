@@ -13,4 +13,12 @@ namespace tensegrity {
 // Idempotent and thread-safe; the first call does the work.
 void use_one_blas_thread();
 
+// use_one_blas_thread(), then ends the worker threads OpenBLAS starts when it
+// loads: each spins on sched_yield for about a tenth of a second before it
+// sleeps, a core taken from every short-lived process on a two-core machine.
+// For a program's start, before it starts threads of its own (the command
+// line): a pool ended while another thread runs BLAS would be unsafe. A later
+// multithreaded BLAS call would start the pool again.
+void end_blas_thread_pool();
+
 }  // namespace tensegrity

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <iterator>
 #include <limits>
 #include <random>
 #include <utility>
@@ -14,6 +16,7 @@
 
 #include "formulations/force_scale.hpp"
 #include "formulations/minimal_geometry_change_nlp.hpp"
+#include "kernels/blas_threads.hpp"
 #include "kernels/sparse_nlp.hpp"
 #include "scenes/suites.hpp"
 #include "solvers/ipopt/dimensionless_eq5.hpp"
@@ -171,6 +174,30 @@ TEST(IpoptAdapter, Hs071ReachesItsPublishedOptimum) {
   double f = 0.0;
   problem.objective(problem.x, f);
   EXPECT_NEAR(f, 17.0140173, 1e-7);  // the published optimum, 9 digits
+}
+
+long threads_of_this_process() {
+  const std::filesystem::directory_iterator tasks("/proc/self/task");
+  return static_cast<long>(std::distance(begin(tasks), end(tasks)));
+}
+
+// The command line ends OpenBLAS's pool at its start (cli/main.cpp): OpenBLAS
+// starts one thread per further core when it loads (none with
+// OPENBLAS_NUM_THREADS=1 or on one core), and Ipopt's MUMPS then factors on
+// the calling thread alone.
+TEST(IpoptAdapter, AfterTheBlasPoolEndsOneThreadRemainsAndIpoptStillSolves) {
+  const long threads_before = threads_of_this_process();
+  end_blas_thread_pool();
+  EXPECT_EQ(threads_of_this_process(), 1) << "threads before: " << threads_before;
+  Hs071 problem;
+  IpoptSettings settings;
+  settings.set("tol", 1e-10);
+  const IpoptSolveResult r = solve_with_ipopt(problem, settings);
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  double f = 0.0;
+  problem.objective(problem.x, f);
+  EXPECT_NEAR(f, 17.0140173, 1e-7);
+  EXPECT_EQ(threads_of_this_process(), 1);
 }
 
 TEST(IpoptAdapter, LaterOptionsWinAndAnUnknownOptionIsAnError) {
