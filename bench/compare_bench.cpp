@@ -17,7 +17,9 @@
 // the timing, by an alternating-gn equilibrium solve plus 1 % node noise.
 // Besides every registered backend, `ipopt@auto` is Ipopt with
 // --option start=auto (docs/BACKENDS.md; the default starts from
-// eq5-newton's answer), so that both of Ipopt's starts are timed in the same run.
+// eq5-newton's answer), so that both of Ipopt's starts are timed in the same
+// run, and on the gravity tower family `eq5-newton@barrier=monotone` is
+// eq5-newton with the monotone barrier rule beside Mehrotra's, its default.
 // Scenes are built once, before any timing; success is checked after the
 // timing loop by the independent model/verify at --success_tol.
 //
@@ -174,10 +176,14 @@ constexpr double kGravityTowerEquilibriumLimit = 120.0;  // s, as eq5_newton_ben
 // family's perturbed character.
 constexpr double kSideBySideNoise = 0.02;
 constexpr unsigned kSideBySideSeed = 1u;
-// A benchmarked backend with a start of its own: backend@start.
-constexpr char kStartSeparator = '@';
+// A benchmarked backend with an option of its own: backend@key=value, or
+// backend@value for its start.
+constexpr char kOptionSeparator = '@';
+constexpr char kOptionValueSeparator = '=';
+constexpr const char* kStartOption = "start";
 constexpr std::string_view kIpoptAutoStart = "ipopt@auto";
-static_assert(kIpoptAutoStart[5] == kStartSeparator);
+static_assert(kIpoptAutoStart[5] == kOptionSeparator);
+constexpr const char* kEq5NewtonMonotone = "eq5-newton@barrier=monotone";
 
 struct BenchScene {
   std::string family;  // "compare", "side-by-side" or "scaling"
@@ -283,12 +289,28 @@ std::vector<std::string> bench_backends() {
   return names;
 }
 
+// ... and on the gravity tower family also eq5-newton's other barrier rule.
+std::vector<std::string> gravity_tower_backends() {
+  std::vector<std::string> names = bench_backends();
+  names.emplace_back(kEq5NewtonMonotone);
+  return names;
+}
+
+// The backend option a label's suffix names (backend@key=value, backend@start).
+OptionPairs label_options(const std::string& label) {
+  const std::size_t at = label.find(kOptionSeparator);
+  if (at == std::string::npos) return {};
+  const std::string option = label.substr(at + 1);
+  const std::size_t equals = option.find(kOptionValueSeparator);
+  if (equals == std::string::npos) return {{kStartOption, option}};
+  return {{option.substr(0, equals), option.substr(equals + 1)}};
+}
+
 void run(benchmark::State& state, const std::string& label, const Structure& scene) {
-  const std::size_t at = label.find(kStartSeparator);
-  const std::string backend = label.substr(0, at);
+  const std::string backend = label.substr(0, label.find(kOptionSeparator));
   const auto solver = make_solver(backend);
   SolveOptions options;
-  if (at != std::string::npos) options.backend_options = {{"start", label.substr(at + 1)}};
+  options.backend_options = label_options(label);
   options.tolerance = config().tolerance;
   options.time_limit_s = config().time_limit_s;
   SolveResult r;
@@ -355,7 +377,7 @@ const Structure* gravity_tower_scene(int layers) {
 
 void register_all() {
   for (int layers : config().gravity_tower_layers)
-    for (const std::string& backend : bench_backends()) {
+    for (const std::string& backend : gravity_tower_backends()) {
       const std::string name = "gravity-towers/" + scenes::gravity_tower_name(layers) + "/" + backend;
       benchmark::RegisterBenchmark(name.c_str(),
                                    [backend, layers](benchmark::State& st) {
@@ -438,7 +460,7 @@ void parse_own_flags(int* argc, char** argv) {
 }  // namespace tensegrity
 
 int main(int argc, char** argv) {
-  tensegrity::use_one_blas_thread();  // one solve, one core
+  tensegrity::end_blas_thread_pool();  // one solve, one core, no idle pool spinning on the other
   tensegrity::parse_own_flags(&argc, argv);
   tensegrity::register_all();
   benchmark::Initialize(&argc, argv);

@@ -66,7 +66,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores; ipopt_auto_stress,
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k eq5_newton_barrier gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores; ipopt_auto_stress,
 # ipopt_default_stress and nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
@@ -1155,6 +1155,13 @@ gravity_towers_10k() {
     '^gravity-towers/[^/]+/(alternating-gn|eq5-newton|ipopt|ipopt@auto)/' "${FIGURES_10K_TIME_LIMIT:-120}" 1e-8
 }
 
+# eq5-newton's two barrier rules, Mehrotra's (its default) and the monotone
+# one, side by side on the family to 9,280 elements.
+eq5_newton_barrier() {
+  gravity_tower_figure eq5-newton-barrier "eq5-newton's barrier rules on the gravity tower family" 10,20,40,80,160 \
+    '^gravity-towers/[^/]+/eq5-newton(@barrier=monotone)?/' "${FIGURES_10K_TIME_LIMIT:-120}" 1e-8
+}
+
 # --- the outputs shown in docs/OUTPUTS.md and docs/PYTHON.md ------------------------
 # outputs_record FILE TITLE: a provenance record for the pictures and tables in a
 # docs folder; each output then adds its command and what the program printed.
@@ -1488,7 +1495,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k eq5_newton_barrier gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores}; do
   "$section"
 done
 step "done; figures in $out"
