@@ -84,8 +84,10 @@ if [ "${FIGURES_NO_BUILD:-0}" != 1 ]; then
 fi
 tg=$build/tensegrity
 cb=$build/bench/compare_bench
-[ -x "$tg" ] || { echo "docs-figures: $tg missing" >&2; exit 1; }
-need_bench() { [ -x "$cb" ] || { echo "docs-figures: $cb missing" >&2; exit 1; }; }
+# need_executable PATH: stop with a message when a binary the section runs was not built.
+need_executable() { [ -x "$1" ] || { echo "docs-figures: $1 missing" >&2; exit 1; }; }
+need_executable "$tg"
+need_bench() { need_executable "$cb"; }
 
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1  # one core per solve (nproc counts them too)
 work=$(mktemp -d)
@@ -747,7 +749,7 @@ EOF
 link_stiffness() {
   step "link stiffness: face and edge links between two blocks"
   local test_bin=$build/tests/link_stiffness_test
-  [ -x "$test_bin" ] || { echo "docs-figures: $test_bin missing" >&2; exit 1; }
+  need_executable "$test_bin"
   header "$out/link-stiffness.md" "Rotational stiffness of face and edge links" \
     "$test_bin --gtest_filter=LinkStiffness.EdgeLinkIsMoreIsotropicThanFaceLink"
   {
@@ -1029,7 +1031,7 @@ EOF2
 # warm-started at that equilibrium (eq5_newton_bench, medians of 3, one BLAS thread).
 eq5_newton() {
   local eb="$build/bench/eq5_newton_bench"
-  [ -x "$eb" ] || { echo "docs-figures: $eb missing" >&2; exit 1; }
+  need_executable "$eb"
   step "eq5-newton, alternating-gn and ipopt-warm on the gravity towers (medians of 3)"
   local cmd="OPENBLAS_NUM_THREADS=1 $eb --tower_layers=10,20,40 --time_limit=60 --benchmark_filter=^(alternating-gn|eq5-newton|ipopt-warm)/ --benchmark_repetitions=3 --benchmark_out=eq5-newton.json --benchmark_out_format=json"
   header "$out/eq5-newton.md" "eq5-newton against alternating-gn and a warm-started Ipopt" "$cmd"
@@ -1370,7 +1372,7 @@ EOF2
 # conformance scenes and the scorpions (nlopt_bench side-by-side/, medians of 3).
 nlopt_variants() {
   local nb="$build/bench/nlopt_bench"
-  [ -x "$nb" ] || { echo "docs-figures: $nb missing" >&2; exit 1; }
+  need_executable "$nb"
   step "nlopt variants and ipopt side by side (medians of 3)"
   local cmd="$nb --benchmark_filter=^side-by-side/ --benchmark_repetitions=3 --time_limit=$limit --table=nlopt-variants.md"
   header "$out/nlopt-variants.md" "The nlopt backend's variants side by side with Ipopt" "$cmd"
@@ -1394,7 +1396,7 @@ nlopt_variants() {
 # medians of 5): the set-up and the solve at the scene's own geometry.
 check_qp() {
   local qb="$build/bench/stress_qp_bench"
-  [ -x "$qb" ] || { echo "docs-figures: $qb missing" >&2; exit 1; }
+  need_executable "$qb"
   step "the check's stress QP with K and through the node space (medians of 5)"
   local cmd="$qb --benchmark_repetitions=5 --benchmark_out=check-qp.json --benchmark_out_format=json"
   header "$out/check-qp.md" "The check's stress QP: K against the node space" "$cmd"
