@@ -1436,8 +1436,8 @@ EOF2
 # characters as built and generated towers with node noise (gravity towers of
 # 4 to 80 layers, plain 10-layer towers that start far from equilibrium).
 two_cores() {
-  step "two-cores.md: batch and stress-test, one worker then two (3 runs each)"
-  local set="$work/two-cores-set" rounds=3
+  step "two-cores.md: batch and stress-test, one worker then two (5 runs each)"
+  local set="$work/two-cores-set" rounds=5
   mkdir -p "$set"
   cp data/reference/*.scene.json "$set/"
   for c in duck puppy scorpion; do
