@@ -4,7 +4,7 @@
 //
 // Solves independent (scene, backend) jobs in forked worker processes, the
 // longest estimated first, each solve single-threaded (one BLAS thread), so N
-// workers use N cores, Ipopt included (cli/process_pool.hpp). A worker writes
+// workers use N cores, Ipopt included (workers/process_pool.hpp). A worker writes
 // its solution file with the same functions as `solve`, so the files are the
 // ones `solve` writes. Prints one line per job and a summary with the wall
 // time, the CPU time of every process and the speed-up (sum of the jobs' wall
@@ -28,7 +28,7 @@
 #include "reports/output.hpp"
 #include "cli/batch_jobs.hpp"
 #include "cli/prestress_factor_option.hpp"
-#include "cli/process_pool.hpp"
+#include "workers/process_pool.hpp"
 #include "cli/progress.hpp"
 #include "model/errors.hpp"
 #include "model/json_text.hpp"
@@ -170,7 +170,7 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
       settings.options.time_limit_s = args->time_limit;
       settings.options.prestress_factor = reports::checked_prestress_factor(args->prestress_factor);
       settings.controls.skip_if_in_equilibrium = !args->no_skip;
-      settings.kill_after_s = args->kill_after > 0.0 ? args->kill_after : 2.0 * args->time_limit + 5.0;
+      settings.kill_after_s = args->kill_after > 0.0 ? args->kill_after : default_kill_after(args->time_limit);
       if (!(args->kill_after >= 0.0)) throw InputError("command line", "--kill-after", "must be a number >= 0");
       std::vector<std::string> solver_names = args->solvers;
       if (solver_names.empty()) solver_names.push_back("");

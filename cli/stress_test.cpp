@@ -4,11 +4,11 @@
 #include <cmath>
 #include <exception>
 
-#include "cli/process_pool.hpp"
 #include "cli/stress_cases.hpp"
 #include "kernels/blas_threads.hpp"
 #include "model/scene_io.hpp"
 #include "model/verify.hpp"
+#include "workers/solve_jobs.hpp"
 
 namespace tensegrity::cli {
 
@@ -41,7 +41,7 @@ StressReport run_stress_test(const StressTestOptions& options) {
   report.skipped = std::move(plan.skipped);
   const std::size_t total = cases.size() * solvers.size();
   report.trials.resize(total);
-  const double overrun_s = 2.0 * options.time_limit_s + 5.0;
+  const double overrun_s = default_kill_after(options.time_limit_s);
   std::vector<std::size_t> job_trial;  // the trial of each job (rejected cases are not run)
   std::vector<double> cost;
   for (std::size_t k = 0; k < total; ++k) {

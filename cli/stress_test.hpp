@@ -2,7 +2,7 @@
 // The numerical stress test behind `tensegrity stress-test` (docs/ROBUSTNESS.md):
 // seeded families of perturbed scenes built from every benchmark scene and
 // character, solved by every chosen backend in worker processes
-// (cli/process_pool.hpp), the longest estimated first, each result
+// (workers/process_pool.hpp), the longest estimated first, each result
 // re-checked independently with model/verify, and summarised per backend and
 // family (and per level of the family's perturbation).
 //

@@ -18,7 +18,7 @@
 #include "cli/commands.hpp"
 #include "cli/prestress_factor_option.hpp"
 #include "reports/output.hpp"
-#include "cli/process_pool.hpp"
+#include "workers/process_pool.hpp"
 #include "cli/progress.hpp"
 #include "cli/stress_test.hpp"
 #include "model/errors.hpp"

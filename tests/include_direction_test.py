@@ -3,6 +3,7 @@
 
     model <- scenes
     model <- formulations <- kernels <- solvers <- simulation <- design <- reports <- cli, bench, python
+    solvers <- workers <- cli, bench
     tests may include everything; nothing outside tests/ and bench/ includes them.
 
 Inside solvers/, the interface and driver (solvers/*.hpp, *.cpp) never include a
@@ -20,7 +21,7 @@ import re
 import sys
 import tempfile
 
-LIBRARIES = ["model", "scenes", "formulations", "kernels", "solvers", "simulation", "design", "reports"]
+LIBRARIES = ["model", "scenes", "formulations", "kernels", "solvers", "simulation", "design", "reports", "workers"]
 ALLOWED = {
     "model": {"model"},
     "scenes": {"scenes", "model"},
@@ -30,6 +31,7 @@ ALLOWED = {
     "simulation": {"simulation", "solvers", "kernels", "formulations", "model"},
     "design": {"design", "simulation", "solvers", "kernels", "formulations", "model"},
     "reports": {"reports", "design", "simulation", "solvers", "kernels", "formulations", "model"},
+    "workers": {"workers", "solvers", "kernels", "formulations", "model"},
     "cli": {"cli", *LIBRARIES},
     "bench": {"bench", *LIBRARIES},
     "python": {"python", *LIBRARIES},
@@ -102,6 +104,9 @@ def self_test():
         "design/l.cpp": '#include "reports/output.hpp"\n',                  # upwards
         "python/m.cpp": '#include "cli/commands.hpp"\n',                    # module -> program
         "python/n.cpp": '#include "reports/renderer.hpp"\n',                # allowed
+        "workers/o.cpp": '#include "reports/output.hpp"\n',                 # sideways into reports/
+        "workers/p.cpp": '#include "solvers/solver.hpp"\n',                 # allowed
+        "bench/q.cpp": '#include "workers/solve_jobs.hpp"\n',               # allowed
     }
     with tempfile.TemporaryDirectory() as root:
         for rel, text in cases.items():
@@ -110,7 +115,8 @@ def self_test():
                 f.write(text)
         found = violations(root)
     expected_files = {"model/a.hpp", "cli/b.cpp", "solvers/c.cpp", "solvers/nlopt/d.cpp", "design/f.cpp",
-                      "design/g.cpp", "kernels/h.hpp", "reports/k.cpp", "design/l.cpp", "python/m.cpp"}
+                      "design/g.cpp", "kernels/h.hpp", "reports/k.cpp", "design/l.cpp", "python/m.cpp",
+                      "workers/o.cpp"}
     reported = {line.split(":")[0] for line in found}
     if reported != expected_files:
         print("self-test failed: reported", sorted(reported), "expected", sorted(expected_files))

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-namespace tensegrity::cli {
+namespace tensegrity {
 
 enum class JobEnd {
   Finished,  // the job returned its result
@@ -67,4 +67,4 @@ std::vector<std::size_t> longest_first(const std::vector<double>& estimated_cost
 // the project's benchmark timings (docs/BENCHMARKS.md); only the order matters.
 double estimated_solve_cost(const std::string& backend, int elements);
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity

@@ -1,4 +1,4 @@
-#include "cli/process_pool.hpp"
+#include "workers/process_pool.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -24,7 +24,7 @@
 #include <numeric>
 #include <stdexcept>
 
-namespace tensegrity::cli {
+namespace tensegrity {
 
 namespace process_pool_detail {
 
@@ -458,4 +458,4 @@ double estimated_solve_cost(const std::string& backend, int elements) {
   return (it == kFactor.end() ? 20.0 : it->second) * std::max(1, elements);
 }
 
-}  // namespace tensegrity::cli
+}  // namespace tensegrity
