@@ -23,6 +23,17 @@
 // Scenes are built once, before any timing; success is checked after the
 // timing loop by the independent model/verify at --success_tol.
 //
+// two-cores/mixed/ipopt+alternating-gn+eq5-newton solves a mixed set (the
+// compare family's scenes, the side-by-side family's but the grid, and the
+// gravity towers of --gravity_tower_layers), each scene by each of those three
+// backends, in worker processes as `tensegrity batch --measure-speedup` does
+// (workers/solve_jobs.hpp): first with one worker, then with two, the longest
+// estimated job first. Its time is the two-worker pass's wall time; its
+// counters: jobs, converged (of the two-worker pass), serial_wall_s,
+// parallel_wall_s, parallel_cpu_s (every process), measured_speedup
+// (serial_wall_s / parallel_wall_s), speedup_estimate (the jobs' own wall
+// times over parallel_wall_s), cores (the CPUs this process may use).
+//
 // Own flags (taken out of argv before Google Benchmark sees it):
 //   --trace_dir=DIR        write DIR/<scene>__<backend>.csv, the last run's trace
 //   --time_limit=S         wall-clock budget per solve (default 60)
@@ -55,12 +66,14 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <fstream>
@@ -79,6 +92,7 @@
 #include "solvers/trace_csv.hpp"
 #include "scenes/suites.hpp"
 #include "kernels/blas_threads.hpp"
+#include "workers/solve_jobs.hpp"
 
 // ---------------------------------------------------------------------------
 // Heap meter: malloc and friends are interposed for the whole process (shared
@@ -184,6 +198,15 @@ constexpr const char* kStartOption = "start";
 constexpr std::string_view kIpoptAutoStart = "ipopt@auto";
 static_assert(kIpoptAutoStart[5] == kOptionSeparator);
 constexpr const char* kEq5NewtonMonotone = "eq5-newton@barrier=monotone";
+
+// The two-core family: its backends (one of them Ipopt, whose MUMPS lock
+// would serialise threads) and its number of worker processes.
+constexpr const char* kTwoCoreBackends[] = {"ipopt", "alternating-gn", "eq5-newton"};
+constexpr const char* kTwoCoreName = "two-cores/mixed/ipopt+alternating-gn+eq5-newton";
+constexpr int kTwoCoreWorkers = 2;
+// The side-by-side scene left out of the two-core set: far from equilibrium,
+// Ipopt spends the whole time limit there, and one such job sets both passes' wall time.
+constexpr const char* kTwoCoreExcluded = "octahedron-grid-2x7";
 
 struct BenchScene {
   std::string family;  // "compare", "side-by-side" or "scaling"
@@ -375,6 +398,59 @@ const Structure* gravity_tower_scene(int layers) {
   }
 }
 
+// Both passes of the two-core family over `jobs`; the benchmark's time is the
+// two-worker pass's wall time.
+void run_two_cores(benchmark::State& state, const std::vector<SolveJob>& jobs) {
+  SolveJobSettings parallel_settings;
+  parallel_settings.options.tolerance = config().tolerance;
+  parallel_settings.options.time_limit_s = config().time_limit_s;
+  parallel_settings.controls = DriverControls{config().driver_check};
+  parallel_settings.kill_after_s = default_kill_after(config().time_limit_s);
+  parallel_settings.write_files = false;
+  parallel_settings.workers = kTwoCoreWorkers;
+  SolveJobSettings serial_settings = parallel_settings;
+  serial_settings.workers = 1;
+  SolveJobsRun serial, parallel;
+  for (auto _ : state) {
+    serial = run_solve_jobs(jobs, serial_settings);
+    parallel = run_solve_jobs(jobs, parallel_settings);
+    state.SetIterationTime(parallel.wall_seconds);
+  }
+  const double wall = std::max(parallel.wall_seconds, std::numeric_limits<double>::min());
+  state.counters["jobs"] = static_cast<double>(jobs.size());
+  state.counters["converged"] = static_cast<double>(parallel.converged);
+  state.counters["serial_wall_s"] = serial.wall_seconds;
+  state.counters["parallel_wall_s"] = parallel.wall_seconds;
+  state.counters["parallel_cpu_s"] = parallel.cpu_seconds;
+  state.counters["measured_speedup"] = serial.wall_seconds / wall;
+  state.counters["speedup_estimate"] = parallel.sum_job_wall_seconds / wall;
+  state.counters["cores"] = available_cores();
+  std::fprintf(stderr, "run  %-28s %zu jobs, %zu converged: one worker %.2f s, two %.2f s (CPU %.2f s), speed-up %.2f\n",
+               "two-cores", jobs.size(), parallel.converged, serial.wall_seconds, parallel.wall_seconds,
+               parallel.cpu_seconds, serial.wall_seconds / wall);
+}
+
+void register_two_cores(const std::vector<BenchScene>& scenes) {
+  benchmark::RegisterBenchmark(kTwoCoreName,
+                               [&scenes](benchmark::State& st) {
+                                 std::vector<const Structure*> set;
+                                 for (const BenchScene& s : scenes)
+                                   if ((s.family == "compare" || s.family == "side-by-side") &&
+                                       s.structure.name != kTwoCoreExcluded)
+                                     set.push_back(&s.structure);
+                                 for (int layers : config().gravity_tower_layers)
+                                   if (const Structure* tower = gravity_tower_scene(layers)) set.push_back(tower);
+                                 std::vector<SolveJob> jobs;
+                                 for (const Structure* scene : set)
+                                   for (const char* backend : kTwoCoreBackends)
+                                     jobs.push_back({scene, scene->name, "", backend, "", ""});
+                                 run_two_cores(st, jobs);
+                               })
+      ->Unit(benchmark::kSecond)
+      ->Iterations(1)
+      ->UseManualTime();
+}
+
 void register_all() {
   for (int layers : config().gravity_tower_layers)
     for (const std::string& backend : gravity_tower_backends()) {
@@ -396,6 +472,7 @@ void register_all() {
           ->UseRealTime();
     }
   static const std::vector<BenchScene> scenes = all_scenes();
+  register_two_cores(scenes);
   for (const BenchScene& s : scenes)
     for (const std::string& backend : bench_backends()) {
       const std::string name = s.family + "/" + s.structure.name + "/" + backend;

@@ -7,6 +7,8 @@ Writes into DIR:
   results.csv             one row per scene x backend (medians over repetitions)
   table.md                the same as a Markdown table (also printed)
   scaling.csv             time and memory against elements (scaling/ and gravity-towers/ families)
+  two_cores.csv           the two-core family: one row per repetition (one worker, then two);
+                          its table and median speed-up are also appended to table.md
   profile.csv             Dolan-More performance profile points
   <scene>.png             relative residual and geometry change against seconds, per backend
   profile.png             performance profile (time to a verified solution)
@@ -26,6 +28,9 @@ import sys
 from collections import defaultdict
 
 THRESHOLDS = ["t_1e-4", "t_1e-6", "t_1e-8", "t_1e-10"]
+TWO_CORES = "two-cores"
+TWO_CORE_FIELDS = ["jobs", "converged", "serial_wall_s", "parallel_wall_s", "parallel_cpu_s", "measured_speedup",
+                   "speedup_estimate", "cores"]
 UNIT = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}
 
 
@@ -52,6 +57,8 @@ def load_runs(paths):
         if len(parts) < 3:
             continue
         family, scene, backend = parts[0], parts[1], parts[2]
+        if family == TWO_CORES:
+            continue  # not a solve of one scene: two_core_runs
         runs = groups.get(name) or ([aggregates[name]["median"]] if "median" in aggregates.get(name, {}) else [])
         if not runs:
             continue
@@ -123,6 +130,43 @@ def write_tables(rows, out, fits=None):
             f"| {fmt_exponent(fits, r)} | {r['peak_heap_MB']:.2f} |")
     text = "\n".join(lines) + "\n"
     with open(os.path.join(out, "table.md"), "w") as f:
+        f.write(text)
+    return text
+
+
+def two_core_runs(paths):
+    """The two-core family's repetitions, in file order: one dict of counters each."""
+    runs = []
+    for path in paths:
+        with open(path) as f:
+            data = json.load(f)
+        for b in data.get("benchmarks", []):
+            if b.get("run_type") == "aggregate" or not b.get("run_name", b["name"]).startswith(TWO_CORES + "/"):
+                continue
+            runs.append({"name": b.get("run_name", b["name"]).split("/iterations:")[0],
+                         **{k: b[k] for k in TWO_CORE_FIELDS if k in b}})
+    return runs
+
+
+def write_two_cores(runs, out):
+    """two_cores.csv and the Markdown table with the median measured speed-up."""
+    with open(os.path.join(out, "two_cores.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["name", "run"] + TWO_CORE_FIELDS)
+        for i, r in enumerate(runs, 1):
+            w.writerow([r["name"], i] + [r.get(k, "") for k in TWO_CORE_FIELDS])
+    lines = ["", f"Two cores ({runs[0]['name']}): one worker process, then two, longest job first", "",
+             "| run | jobs | converged | one worker: wall s | two workers: wall s | two workers: CPU s "
+             "| measured speed-up | estimate |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for i, r in enumerate(runs, 1):
+        lines.append(f"| {i} | {int(r['jobs'])} | {int(r['converged'])} | {r['serial_wall_s']:.2f} "
+                     f"| {r['parallel_wall_s']:.2f} | {r['parallel_cpu_s']:.2f} | {r['measured_speedup']:.2f} "
+                     f"| {r['speedup_estimate']:.2f} |")
+    lines += ["", f"Median measured speed-up: {statistics.median(r['measured_speedup'] for r in runs):.2f} "
+              f"over {len(runs)} run(s) on {int(runs[0]['cores'])} core(s)."]
+    text = "\n".join(lines) + "\n"
+    with open(os.path.join(out, "table.md"), "a") as f:
         f.write(text)
     return text
 
@@ -267,11 +311,19 @@ def main():
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     rows, context = load_runs(a.json)
+    two_cores = two_core_runs(a.json)
+    if not rows and not two_cores:
+        sys.exit("report.py: no compare_bench benchmarks in " + " ".join(a.json))
     if not rows:
-        sys.exit("report.py: no compare/ or scaling/ benchmarks in " + " ".join(a.json))
+        with open(os.path.join(a.out, "table.md"), "w"):
+            pass
+        print(write_two_cores(two_cores, a.out))
+        return
     add_relative_geometry_change(rows)
     sc_backends, fits = scaling(rows, a.out)
     print(write_tables(rows, a.out, fits))
+    if two_cores:
+        print(write_two_cores(two_cores, a.out))
 
     backends, tau_max, summary = performance_profile(rows, a.out)
     print("Performance profile over", len({(k[0], k[1]) for k in rows}), "scenes (time to a verified solution):")
