@@ -1436,7 +1436,8 @@ EOF2
 # characters as built and generated towers with node noise (gravity towers of
 # 4 to 80 layers, plain 10-layer towers that start far from equilibrium).
 two_cores() {
-  step "two-cores.md: batch and stress-test, one worker then two (5 runs each)"
+  step "two-cores.md: batch, stress-test and compare_bench's two-core family, one worker then two (5 runs each)"
+  need_bench
   local set="$work/two-cores-set" rounds=5
   mkdir -p "$set"
   cp data/reference/*.scene.json "$set/"
@@ -1455,14 +1456,21 @@ two_cores() {
   local solvers=ipopt,alternating-gn,eq5-newton
   local batch_cmd="$tg batch SET --solver $solvers --no-skip --time-limit 20 --jobs 2 --measure-speedup --json batch.json --out-dir OUT"
   local stress_cmd="$tg stress-test --scenes tower,character --families noise,twist --trials 1 --solvers $solvers --time-limit 10 --jobs 2 --measure-speedup --out stress.json"
+  local bench_args=(--benchmark_filter='^two-cores/' --gravity_tower_layers=10,20,40,80 --time_limit=20 --tolerance=1e-8)
+  local bench_cmd="$cb ${bench_args[*]} --benchmark_out=two-cores.json --benchmark_out_format=json"
+  local bench_json=()
   for round in $(seq 1 "$rounds"); do
     rm -rf "$work/two-cores-out" && mkdir -p "$work/two-cores-out"
     "$tg" batch "$set" --solver "$solvers" --no-skip --time-limit 20 --jobs 2 --measure-speedup --quiet \
       --json "$work/two-cores-batch-$round.json" --out-dir "$work/two-cores-out" >/dev/null
     "$tg" stress-test --scenes tower,character --families noise,twist --trials 1 --solvers "$solvers" \
       --time-limit 10 --jobs 2 --measure-speedup --quiet --data data --out "$work/two-cores-stress-$round.json" >/dev/null
+    "$cb" "${bench_args[@]}" --benchmark_out="$work/two-cores-bench-$round.json" --benchmark_out_format=json \
+      >/dev/null 2>&1
+    bench_json+=("$work/two-cores-bench-$round.json")
   done
-  header "$out/two-cores.md" "Both cores: batch and stress-test, one worker against two" "$batch_cmd" "; $stress_cmd"
+  header "$out/two-cores.md" "Both cores: batch, stress-test and compare_bench, one worker against two" \
+    "$batch_cmd" "; $stress_cmd" "; $bench_cmd"
   "$py" - "$work" "$rounds" "$(ls "$set" | wc -l)" >>"$out/two-cores.md" <<'EOF2'
 import json, statistics, sys
 work, rounds, scenes = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
@@ -1493,6 +1501,15 @@ for name, label in (("batch", "`batch`"), ("stress", "`stress-test`")):
 print()
 print("Median measured speed-up: " + "; ".join(f"{k} {v:.2f}" for k, v in medians.items()) + ".")
 EOF2
+  {
+    echo
+    echo "\`compare_bench\`'s two-core family: the compare family's scenes, the side-by-side family's but the"
+    echo "octahedron grid (where Ipopt spends its whole time limit), and the gravity towers of 10, 20, 40 and 80"
+    echo "layers with 1 % noise, each solved by ipopt, alternating-gn and eq5-newton, one benchmark run per round"
+    echo "(\`bench/scripts/report.py\`):"
+    "$py" bench/scripts/report.py --json "${bench_json[@]}" --out "$work/two-cores-report" >/dev/null
+    cat "$work/two-cores-report/table.md"
+  } >>"$out/two-cores.md"
 }
 
 # The deterministic figures first, the timed ones after them, so that a run
