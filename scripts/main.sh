@@ -76,6 +76,6 @@ for solver in ipopt alternating-gn; do
 done
 
 step 4/4 "comparison table and plots"
-python3 bench/scripts/report.py --json "$out/compare.json" --traces "$out/traces" --out "$out/report"
+/usr/bin/python3 bench/scripts/report.py --json "$out/compare.json" --traces "$out/traces" --out "$out/report"
 echo
 echo "JSON: $out/compare.json   traces: $out/traces/   table and plots: $out/report/"
