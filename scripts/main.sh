@@ -8,8 +8,11 @@
 #      solution checked by the independent verifier; times to relative residual
 #      1e-4 ... 1e-10 from the solvers' traces;
 #   3. the two-core batch mode on the characters and chains, with the measured
-#      speed-up, every batch solution re-checked by `tensegrity check`;
-#   4. the comparison table (printed) and the plots: build/main-job/report/*.png.
+#      speed-up, every batch solution re-checked by `tensegrity check`; then
+#      compare_bench's two-core family, a mixed set with Ipopt solves and the
+#      gravity towers of 10 to 40 layers, one worker process against two;
+#   4. the comparison table (printed, with the two-core run) and the plots:
+#      build/main-job/report/*.png.
 # Runs in a few minutes on two cores. Environment: MAIN_TIME_LIMIT (s per
 # solve, default 5), MAIN_CHAIN_SIZES (default 2,4,8,16,32), MAIN_TOWER_LAYERS
 # (default 2,4,8), MAIN_BUILD_DIR
@@ -58,7 +61,7 @@ echo "$total runs; one line each: scene, backend, status, seconds, iterations, r
   2> >(progress "$total" >&2) >/dev/null
 sleep 0.5  # let the progress filter print its last line
 
-step 3/4 "two cores: batch mode, ipopt and alternating-gn on the characters and chains"
+step 3/4 "two cores: batch mode (ipopt and alternating-gn on the characters and chains), then compare_bench's two-core family"
 for c in duck scorpion puppy; do
   "$build"/tensegrity build "data/characters/$c.character.json" --out "$out/scenes/$c.scene.json" 2>/dev/null
 done
@@ -74,8 +77,12 @@ for solver in ipopt alternating-gn; do
   done
   echo "independent check (tensegrity check): $bad of $(ls "$out"/scenes/*.scene.json | wc -l) solutions rejected"
 done
+echo "-- compare_bench's two-core family: ipopt, alternating-gn and eq5-newton on a mixed set"
+"$build"/bench/compare_bench --benchmark_filter='^two-cores/' --time_limit="$time_limit" --tolerance=1e-8 \
+  --benchmark_out="$out/two-cores.json" --benchmark_out_format=json 2>&1 >/dev/null | grep '^run' || true
 
 step 4/4 "comparison table and plots"
-/usr/bin/python3 bench/scripts/report.py --json "$out/compare.json" --traces "$out/traces" --out "$out/report"
+/usr/bin/python3 bench/scripts/report.py --json "$out/compare.json" "$out/two-cores.json" --traces "$out/traces" \
+  --out "$out/report"
 echo
 echo "JSON: $out/compare.json   traces: $out/traces/   table and plots: $out/report/"
