@@ -1,5 +1,6 @@
 #pragma once
-// Independent jobs in forked worker processes (`batch`, `stress-test`).
+// Independent jobs in forked worker processes (`batch`, `stress-test`,
+// compare_bench's two-core family).
 //
 // Threads of one process would take turns through the process-wide MUMPS lock
 // of every Ipopt run (kernels/ipopt_solve.hpp); processes share nothing, so N
