@@ -63,12 +63,14 @@ def main():
         print(f"change second / first: smallest {min(ratios):.3g}, largest {max(ratios):.3g}; "
               f"more than 1 % closer on {sum(r < 1 - CLEARLY for r in ratios)}, "
               f"more than 1 % farther on {sum(r > 1 + CLEARLY for r in ratios)}")
-    sa = sum(a[k]["seconds"] for k in keys)
-    sb = sum(b[k]["seconds"] for k in keys)
-    ma = statistics.median(a[k]["seconds"] for k in keys)
-    mb = statistics.median(b[k]["seconds"] for k in keys)
-    print(f"solver seconds in all: first {sa:.1f}, second {sb:.1f} ({sb / sa:.2f}x); "
-          f"median per trial: first {ma:.4f}, second {mb:.4f}")
+    # Reports written with --no-times carry no seconds.
+    if all("seconds" in a[k] and "seconds" in b[k] for k in keys):
+        sa = sum(a[k]["seconds"] for k in keys)
+        sb = sum(b[k]["seconds"] for k in keys)
+        ma = statistics.median(a[k]["seconds"] for k in keys)
+        mb = statistics.median(b[k]["seconds"] for k in keys)
+        print(f"solver seconds in all: first {sa:.1f}, second {sb:.1f} ({sb / sa:.2f}x); "
+              f"median per trial: first {ma:.4f}, second {mb:.4f}")
     if args.list:
         for k in only_first:
             print("  first only:", k, a[k]["iterations"], "iterations;", "second:", b[k]["status"])
@@ -77,6 +79,9 @@ def main():
         for k in keys:
             if solved(a[k]) and solved(b[k]) and b[k]["geometry_change"] > (1 + CLEARLY) * a[k]["geometry_change"]:
                 print("  farther:", k, a[k]["geometry_change"], "->", b[k]["geometry_change"])
+        for k in keys:
+            if solved(a[k]) and solved(b[k]) and b[k]["geometry_change"] < (1 - CLEARLY) * a[k]["geometry_change"]:
+                print("  closer:", k, a[k]["geometry_change"], "->", b[k]["geometry_change"])
 
 
 if __name__ == "__main__":

@@ -66,6 +66,13 @@ constexpr double kStationaryKktError = 1e-5;
 constexpr double kStationaryKktShare = 0.1;
 constexpr double kStationaryBarrierFactor = 2.0;
 constexpr int kProjectionSteps = 6;
+// When those steps leave the bounds (multipliers v of a polish far from its
+// optimum do not hold the forces near their bounds), the projection is
+// repeated in the metric I + Sigma + w / d^2, the Hessian of a log barrier of
+// weight w added, with steps cut to the fraction to the boundary; it then
+// gains about a factor of two per step, hence the larger number of steps.
+constexpr double kSafeguardBarrierWeight = 1e-6;
+constexpr int kSafeguardedProjectionSteps = 40;
 // Iterative refinement of each solve against the matrix without delta_c: at
 // most this many steps, until the residual is below the tolerance relative to
 // |b|, or until a step no longer halves it (it has reached its rounding floor,
@@ -204,25 +211,38 @@ void evaluate(ScaledEq5& problem, const Eigen::VectorXd& y, MeritPoint& p) {
 }
 
 // Moves y towards c(y) = 0 by minimal-norm Newton steps in the metric
-// I + Sigma (Sigma = v / d on the bounded variables, so that those at their
-// bounds stay put): [I + Sigma, J^T; J, -delta_c I] (dy, lambda) = (0, -c),
-// until |c|_inf is below `tolerance` or stops falling (its round-off floor).
-// False when a step leaves the bounds or is not finite.
-bool project_onto_constraints(ScaledEq5& problem, KktSystem& kkt, const Eigen::VectorXd& lambda,
-                              const Eigen::VectorXd& v, double tolerance, Eigen::VectorXd& y, MeritPoint& here) {
-  const int n = problem.num_variables(), mc = problem.num_constraints();
+// I + Sigma + w / d^2 (Sigma = v / d on the bounded variables, so that those
+// at their bounds stay put; w = 0 or kSafeguardBarrierWeight):
+// [I + metric, J^T; J, -delta_c I] (dy, lambda) = (0, -c), until |c|_inf is
+// below `tolerance` or stops falling (its round-off floor). Without w a step
+// that leaves the bounds fails the projection; with it each step is cut to
+// the fraction to the boundary. False when a step fails or is not finite.
+bool project_with_metric(ScaledEq5& problem, KktSystem& kkt, const Eigen::VectorXd& lambda, const Eigen::VectorXd& v,
+                         double tolerance, double barrier_weight, int max_steps, Eigen::VectorXd& y,
+                         MeritPoint& here) {
+  const int n = problem.num_variables(), mc = problem.num_constraints(), nq = problem.num_positions();
+  const int m = problem.num_bounded();
+  const Eigen::VectorXd& S = problem.bound_signs();
+  const bool safeguarded = barrier_weight > 0.0;
   Eigen::SparseMatrix<double> no_curvature = problem.hessian(y, lambda);
   no_curvature.coeffs().setZero();
   constexpr double kUnitMetric = 1.0;
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + mc), step, y_next;
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + mc), step, y_next, metric;
   MeritPoint next;
-  for (int k = 0; k < kProjectionSteps && here.c.cwiseAbs().maxCoeff() > tolerance; ++k) {
-    const Eigen::VectorXd metric = v.cwiseQuotient(here.d);
+  for (int k = 0; k < max_steps && here.c.cwiseAbs().maxCoeff() > tolerance; ++k) {
+    metric = v.cwiseQuotient(here.d);
+    if (safeguarded) metric.array() += barrier_weight / here.d.array().square();
     if (!kkt.factorize(no_curvature, problem.jacobian(y), metric, kUnitMetric)) return false;
     rhs.tail(mc) = -here.c;
     kkt.solve(rhs, step);
     if (!step.allFinite()) return false;
-    y_next = y + step.head(n);
+    double alpha = 1.0;
+    if (safeguarded)
+      for (int e = 0; e < m; ++e) {
+        const double dd = S[e] * step[nq + e];
+        if (dd < 0.0) alpha = std::min(alpha, -kSmallestFractionToBoundary * here.d[e] / dd);
+      }
+    y_next = y + alpha * step.head(n);
     evaluate(problem, y_next, next);
     if (!next.inside) return false;
     if (next.c.cwiseAbs().maxCoeff() >= here.c.cwiseAbs().maxCoeff()) break;
@@ -230,6 +250,16 @@ bool project_onto_constraints(ScaledEq5& problem, KktSystem& kkt, const Eigen::V
     std::swap(here, next);
   }
   return true;
+}
+
+// The projection in the plain metric, and where it fails the safeguarded one
+// from the point it reached.
+bool project_onto_constraints(ScaledEq5& problem, KktSystem& kkt, const Eigen::VectorXd& lambda,
+                              const Eigen::VectorXd& v, double tolerance, Eigen::VectorXd& y, MeritPoint& here) {
+  constexpr double kPlainMetric = 0.0;
+  if (project_with_metric(problem, kkt, lambda, v, tolerance, kPlainMetric, kProjectionSteps, y, here)) return true;
+  return project_with_metric(problem, kkt, lambda, v, tolerance, kSafeguardBarrierWeight,
+                             kSafeguardedProjectionSteps, y, here);
 }
 
 }  // namespace

@@ -44,7 +44,9 @@
 // changed by less than a relative 1e-5 over 10 iterations with every KKT
 // residual below 1e-5, the run ends `stationary`, and its last iterate is
 // projected onto c(y) = 0 (minimal-norm Newton steps in the metric I +
-// Sigma, so that forces at their bounds stay put) to constraint_tolerance.
+// Sigma, so that forces at their bounds stay put) to constraint_tolerance;
+// where such a step leaves the bounds, again with a log barrier's Hessian
+// added to the metric and steps cut to the fraction to the boundary.
 #include <Eigen/Core>
 #include <functional>
 #include <limits>
