@@ -263,7 +263,7 @@ TEST(Eq5Newton, ReturnsTheClosestVerifiedIterateWhereNoPolishIsKept) {
 // From 4000 elements a polish that is not kept, or only as its projected
 // last iterate, is not retried: the 70-layer gravity tower (4,060 elements)
 // with a one-iteration polish, whose projected iterate is closer than the
-// start and is the answer.
+// start and is the answer (without restarts from it).
 TEST(Eq5Newton, NoSteadyRetryOnLargeParts) {
   scenes::TowerParameters p;
   p.layers = 70;
@@ -272,7 +272,7 @@ TEST(Eq5Newton, NoSteadyRetryOnLargeParts) {
   const Structure tower = scenes::make_prism_tower(p);
   ASSERT_EQ(tower.num_elements(), 4060);
   SolveOptions options;
-  options.backend_options = {{"newton_iterations", "1"}};
+  options.backend_options = {{"newton_iterations", "1"}, {"restarts", "0"}};
   const SolveResult r = make_solver("eq5-newton")->Solve(tower, options);
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   EXPECT_EQ(newton_details(r).polish, "max_iterations_projected");
@@ -323,7 +323,7 @@ TEST(Eq5Newton, UnderGravityFallsBackToTheHeldPolish) {
 
   const Structure prism = read_scene_file(kReferenceDir + "scenes/prism-6-gravity-noise5-s6.scene.json");
   SolveOptions one_step;
-  one_step.backend_options = {{"newton_iterations", "1"}, {"proximal_weight", "1e-8"}};
+  one_step.backend_options = {{"newton_iterations", "1"}, {"proximal_weight", "1e-8"}, {"restarts", "0"}};
   const SolveResult far_off = solver->Solve(prism, one_step, DriverControls{false});
   ASSERT_EQ(far_off.status, Status::Converged) << far_off.message;
   EXPECT_FALSE(newton_details(far_off).prestress_held);
@@ -524,7 +524,8 @@ TEST(Eq5Newton, NeverKeepsAPolishFartherThanTheStart) {
 // but a smaller change than alternating-gn's. On the stress test's
 // octahedron with one node 1e-4 lengths from another (near-coincident,
 // trial 0, seed 1) both polishes stall; the projected point is 0.20 m from
-// the scene, alternating-gn's equilibrium 0.62 m.
+// the scene, alternating-gn's equilibrium 0.62 m (without restarts from
+// it: PolishRestartsFromTheProjectedPoint).
 TEST(Eq5Newton, KeepsTheProjectedPointOfAStalledPolishWhenItIsCloser) {
   const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
   const auto base = std::find_if(bases.begin(), bases.end(),
@@ -533,7 +534,9 @@ TEST(Eq5Newton, KeepsTheProjectedPointOfAStalledPolishWhenItIsCloser) {
   constexpr int kOneTenThousandth = 1;
   constexpr std::uint64_t kStressSeed = 1;
   const Structure scene = scenes::make_family_case(base->scene, "near-coincident", kOneTenThousandth, 0, kStressSeed);
-  const SolveResult r = make_solver("eq5-newton")->Solve(scene, SolveOptions{});
+  SolveOptions no_restarts;
+  no_restarts.backend_options = {{"restarts", "0"}};
+  const SolveResult r = make_solver("eq5-newton")->Solve(scene, no_restarts);
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   const Eq5NewtonDetails& d = newton_details(r);
   std::printf("near-coincident octahedron: change %.9g m (alternating-gn %.9g m), polish %s\n",
@@ -551,31 +554,86 @@ TEST(Eq5Newton, KeepsTheProjectedPointOfAStalledPolishWhenItIsCloser) {
 // near their bounds), the safeguarded projection (a log barrier's Hessian in
 // the metric, steps cut to the fraction to the boundary) still reaches
 // equilibrium. On the stress test's 8-strut gravity prism with 3 % node noise
-// (trial 0, seed 1) the projected point is 0.2143 m from the scene;
-// without the safeguard the answer was a farther one, 0.2820 m.
-TEST(Eq5Newton, SafeguardedProjectionRescuesAStalledPolish) {
+// (trial 0, seed 1) the polish stalls after 10 Newton iterations and its
+// projected point is 0.2143 m from the scene; without the safeguard the
+// answer was alternating-gn's equilibrium, 0.2820 m away.
+Structure noisy_gravity_prism() {
   const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
   const auto base = std::find_if(bases.begin(), bases.end(),
                                  [](const scenes::BaseScene& b) { return b.name == "prism-8-gravity"; });
-  ASSERT_NE(base, bases.end());
+  EXPECT_NE(base, bases.end());
   constexpr int kThreePerCentNoise = 3;
   constexpr std::uint64_t kStressSeed = 1;
-  const Structure scene = scenes::make_family_case(base->scene, "noise", kThreePerCentNoise, 0, kStressSeed);
-  const SolveResult r = make_solver("eq5-newton")->Solve(scene, SolveOptions{});
+  return scenes::make_family_case(base->scene, "noise", kThreePerCentNoise, 0, kStressSeed);
+}
+
+TEST(Eq5Newton, SafeguardedProjectionRescuesAStalledPolish) {
+  const Structure scene = noisy_gravity_prism();
+  SolveOptions no_restarts;
+  no_restarts.backend_options = {{"restarts", "0"}};
+  const SolveResult r = make_solver("eq5-newton")->Solve(scene, no_restarts);
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   const Eq5NewtonDetails& d = newton_details(r);
-  std::printf("noisy gravity prism: change %.9g m (alternating-gn %.9g m), polish %s\n%s\n",
-              r.stats.geometry_change, d.start_geometry_change, d.polish.c_str(), r.message.c_str());
+  std::printf("noisy gravity prism: change %.9g m (alternating-gn %.9g m), polish %s\n", r.stats.geometry_change,
+              d.start_geometry_change, d.polish.c_str());
   constexpr double kProjectedChange = 0.2142821662;
   constexpr double kUnsafeguardedChange = 0.2820;
+  EXPECT_EQ(d.polish, "stalled_projected");
   EXPECT_NEAR(r.stats.geometry_change, kProjectedChange, 1e-6 * kProjectedChange);
   EXPECT_LT(r.stats.geometry_change, 0.8 * kUnsafeguardedChange);
   const Verification v = verify(scene, r.positions, r.forces, SolveOptions{}.tolerance);
   EXPECT_TRUE(v.ok) << v.relative_residual;
 }
 
+// A fresh polish from that projected point (new barrier, multipliers and
+// filter) meets the KKT test: on the same prism after 4 more Newton
+// iterations, 0.21309 m from the scene, where Ipopt ends too. On the
+// near-coincident octahedron above the restarted polish ends at the
+// stationary stop, closer than the stalled polish's projected point.
+TEST(Eq5Newton, PolishRestartsFromTheProjectedPoint) {
+  const Structure prism = noisy_gravity_prism();
+  const SolveResult r = make_solver("eq5-newton")->Solve(prism, SolveOptions{});
+  ASSERT_EQ(r.status, Status::Converged) << r.message;
+  const Eq5NewtonDetails& d = newton_details(r);
+  const SolveResult ip = make_solver("ipopt")->Solve(prism, SolveOptions{});
+  ASSERT_EQ(ip.status, Status::Converged) << ip.message;
+  std::printf("noisy gravity prism: change %.9g m after %d restarts (ipopt %.9g m)\n%s\n", r.stats.geometry_change,
+              d.restarts, ip.stats.geometry_change, r.message.c_str());
+  EXPECT_EQ(d.polish, "kept");
+  EXPECT_EQ(d.restarts, 1);
+  EXPECT_EQ(d.to_json().at("restarts"), 1);
+  constexpr double kOptimumChange = 0.21309;
+  EXPECT_NEAR(r.stats.geometry_change, kOptimumChange, 1e-5);
+  EXPECT_NEAR(r.stats.geometry_change, ip.stats.geometry_change, kSameChange * ip.stats.geometry_change);
+  EXPECT_NE(r.message.find("local optimum of Eq. 5"), std::string::npos) << r.message;
+  EXPECT_EQ(r.message.find("not a local optimum"), std::string::npos) << r.message;
+
+  const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
+  const auto base = std::find_if(bases.begin(), bases.end(),
+                                 [](const scenes::BaseScene& b) { return b.name == "octahedron"; });
+  ASSERT_NE(base, bases.end());
+  constexpr int kOneTenThousandth = 1;
+  constexpr std::uint64_t kStressSeed = 1;
+  const Structure octahedron =
+      scenes::make_family_case(base->scene, "near-coincident", kOneTenThousandth, 0, kStressSeed);
+  SolveOptions no_restarts;
+  no_restarts.backend_options = {{"restarts", "0"}};
+  const SolveResult stalled = make_solver("eq5-newton")->Solve(octahedron, no_restarts);
+  const SolveResult restarted = make_solver("eq5-newton")->Solve(octahedron, SolveOptions{});
+  ASSERT_EQ(restarted.status, Status::Converged) << restarted.message;
+  std::printf("near-coincident octahedron: %.9g m without restarts, %.9g m after %d\n",
+              stalled.stats.geometry_change, restarted.stats.geometry_change, newton_details(restarted).restarts);
+  EXPECT_EQ(newton_details(restarted).polish, "objective_stationary");
+  EXPECT_LT(restarted.stats.geometry_change, stalled.stats.geometry_change);
+  EXPECT_TRUE(verify(octahedron, restarted.positions, restarted.forces, SolveOptions{}.tolerance).ok);
+}
+
 TEST(Eq5Newton, OptionsAreTypedAndRangeChecked) {
   EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"newton_iterations", "7"}}).newton_iterations, 7);
+  EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"restarts", "0"}}).restarts, 0);
+  EXPECT_EQ(Eq5NewtonOptions::FromPairs({}).restarts, 5);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"restarts", "101"}}), OptionError);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"restarts", "-1"}}), OptionError);
   EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"initial_barrier", "1e-4"}}).initial_barrier, 1e-4);
   EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"newton_iterations", "0"}}), OptionError);
   EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"initial_barrier", "1"}}), OptionError);

@@ -27,6 +27,12 @@ constexpr double kSteadyProximalWeight = 1e-8;
 // from 4,640 elements the polish is kept with neither weight, after tens of
 // seconds each.
 constexpr int kSteadyRetryElements = 4000;
+// A polish that stalls or spends its budget far from its optimum ends at its
+// projected last iterate; a fresh polish from there (new barrier, multipliers
+// and filter) often gets much closer. Each only after one that gained at
+// least this share of the geometry change; at most this many (the option's range).
+constexpr double kRestartGain = 1e-2;
+constexpr int kLargestRestarts = 100;
 // A converged polish whose objective exceeds the start's by more than this
 // share ended at a local optimum farther from the scene (farther_than_start).
 constexpr double kFartherObjective = 1e-6;
@@ -112,6 +118,8 @@ struct PolishRun {
   // stalled or spent its budget, verified and is closer to the scene than
   // alternating-gn's equilibrium (interior_newton.hpp).
   bool projected = false;
+  bool steady = false;       // run with kSteadyProximalWeight
+  PrestressRow row = PrestressRow::Equal;
   // Projected after a stall or at the budget: a closer equilibrium, not a KKT point.
   bool last_iterate_projected() const { return projected && outcome.last_iterate_projected; }
   bool kept() const {
@@ -148,6 +156,7 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
 
   PolishRun run;
   run.cap_slack = problem.has_cap_slack();
+  run.row = row;
   auto positions_and_forces = [&](const Eigen::VectorXd& y) {
     const Eigen::VectorXd z = problem.to_si(y);
     run.positions = nlp.positions(z);
@@ -209,6 +218,13 @@ void record_multipliers(const PolishRun& run, double reference_force, Eq5NewtonD
   details.eq5_force_bound_multipliers = run.outcome.bound_multipliers.head(run.forces.size()) / reference_force;
 }
 
+// The KKT residuals of a polish whose answer stays (the counts keep summing).
+void keep_residuals_of(const InteriorNewtonOutcome& outcome, Eq5NewtonDetails& details) {
+  details.dual_infeasibility = outcome.dual_infeasibility;
+  details.constraint_violation = outcome.constraint_violation;
+  details.complementarity = outcome.complementarity;
+}
+
 // The KKT residuals of an earlier polish whose answer stays (the counts keep summing).
 void keep_residuals(const Eq5NewtonDetails& earlier, Eq5NewtonDetails& details) {
   details.dual_infeasibility = earlier.dual_infeasibility;
@@ -233,6 +249,40 @@ SolveResult verified_answer(std::string message, const Eigen::Matrix3Xd& positio
   result.stats.geometry_change = check.geometry_change;
   result.details = {std::move(details)};
   return result;
+}
+
+Eq5NewtonOptions steady_options(const Eq5NewtonOptions& newton) {
+  Eq5NewtonOptions steady = newton;
+  steady.proximal_weight = kSteadyProximalWeight;
+  return steady;
+}
+
+// Replaces `run`, a kept polish that ended at its projected last iterate, by
+// fresh polishes from that point with the same settings and cable-sum row
+// while each is kept (a verified answer closer than its start), time is left
+// and the last one gained kRestartGain; stops at the first local optimum.
+void restart_from_projected_points(const Structure& part, const SolveOptions& options,
+                                   const Eq5NewtonOptions& settings, const ForceScale& scale,
+                                   TraceRecorder& recorder, ClosestIterate& closest, Eq5NewtonDetails& details,
+                                   PolishRun& run) {
+  double gain = 1.0;
+  for (int r = 0; r < settings.restarts && run.kept() && run.last_iterate_projected() && gain >= kRestartGain &&
+                  recorder.seconds() < options.time_limit_s;
+       ++r) {
+    SolveResult from;
+    from.positions = run.positions;
+    from.forces = run.forces;
+    PolishRun next = polish(part, options, settings, scale, run.row, from, recorder, closest);
+    add_counts(next.outcome, details);
+    ++details.restarts;
+    if (!next.kept()) {
+      keep_residuals_of(run.outcome, details);
+      return;
+    }
+    gain = 1.0 - next.check.geometry_change / run.check.geometry_change;
+    next.steady = run.steady;
+    run = std::move(next);
+  }
 }
 
 // The closest verified iterate as the answer: an equilibrium closer to the
@@ -261,6 +311,7 @@ Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
   o.predictor_corrector = reader.choice("barrier", "mehrotra", {"mehrotra", "monotone"}) == "mehrotra";
   o.prestress_cap = reader.choice("prestress", "cap", {"cap", "equal"}) == "cap";
   o.stationary_stop = reader.choice("stationary_stop", "on", {"on", "off"}) == "on";
+  o.restarts = reader.integer("restarts", o.restarts, 0, kLargestRestarts);
   reader.reject_unknown();
   return o;
 }
@@ -276,6 +327,7 @@ bool Eq5NewtonOptions::IsValid(std::string* why) const {
   if (!(optimality_tolerance > 0.0 && optimality_tolerance < 1.0))
     return fail("optimality_tolerance must be in (0, 1)");
   if (!(proximal_weight > 0.0 && proximal_weight < 1.0)) return fail("proximal_weight must be in (0, 1)");
+  if (restarts < 0 || restarts > kLargestRestarts) return fail("restarts must be in [0, 100]");
   return true;
 }
 
@@ -293,6 +345,7 @@ nlohmann::json Eq5NewtonDetails::to_json() const {
   if (prestress_cap_slack >= 0.0) j["prestress_cap_slack"] = prestress_cap_slack;
   if (prestress_held) j["prestress_held"] = true;
   if (steady_retry) j["steady_retry"] = true;
+  if (restarts > 0) j["restarts"] = restarts;
   return j;
 }
 
@@ -364,10 +417,10 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   const bool stationary_fallback = run.projected && (details->prestress_held || run.last_iterate_projected());
   if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
       part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
-    Eq5NewtonOptions steady = newton;
-    steady.proximal_weight = kSteadyProximalWeight;
+    const Eq5NewtonOptions steady = steady_options(newton);
     const Eq5NewtonDetails before = *details;
     PolishRun retry = polish_sequence(steady);
+    retry.steady = true;
     details->steady_retry = true;
     if (stationary_fallback && !(retry.kept() && retry.check.geometry_change < run.check.geometry_change)) {
       // The first answer stays, with its own KKT residuals; the counts sum both.
@@ -377,6 +430,8 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
       run = std::move(retry);
     }
   }
+  restart_from_projected_points(part, options, run.steady ? steady_options(newton) : newton, scale, recorder, closest,
+                                *details, run);
   details->polish = run.verified_rejected          ? "rejected_by_verification"
                     : run.farther_than_start       ? "farther_than_start"
                     : run.last_iterate_projected() ? polish_name(run.outcome.status) + "_projected"
@@ -411,7 +466,11 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   std::string message = std::string(answer) + " of Eq. 5" +
                         std::string(details->prestress_held ? " held at the prestress cap" : "") + ": " +
                         run.outcome.message + " after " + std::to_string(details->newton_iterations) +
-                        " Newton iterations from alternating-gn's equilibrium (" +
+                        " Newton iterations" +
+                        (details->restarts > 0 ? " (" + std::to_string(details->restarts) +
+                                                   (details->restarts == 1 ? " restart)" : " restarts)")
+                                             : "") +
+                        " from alternating-gn's equilibrium (" +
                         std::to_string(details->start_iterations) + " iterations)";
   if (static_cast<int>(recorder.trace().size()) == start_records)
     recorder.record(trace_point(run.check, start_records, run.objective));

@@ -28,6 +28,10 @@
 //      optimum, the Newton iterate closest to the scene that verifies, of
 //      any polish, replaces it when it is closer (`polish:
 //      closest_iterate`, an equilibrium, not a local optimum).
+//   4. A kept polish that ended at its projected last iterate (stalled or
+//      out of budget) is followed by fresh polishes from that point (new
+//      barrier, multipliers and filter), up to `restarts`, while each is
+//      kept and the last gained at least 1 % of the geometry change.
 //
 // Options (`--option key=value`): newton_iterations (1 .. 100000, default
 // 1000: far from the optimum, on towers without gravity, a polish takes
@@ -39,7 +43,9 @@
 // barrier (mehrotra | monotone: the barrier parameter's rule, default mehrotra),
 // prestress (cap | equal: under gravity the cable-sum row bounded above by
 // kappa n_c W, or held at it; default cap, as the other backends),
-// stationary_stop (on | off: the stationary stop above, default on).
+// stationary_stop (on | off: the stationary stop above, default on),
+// restarts (0 .. 100, default 5: the fresh polishes of step 4, each with
+// its own newton_iterations).
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -57,6 +63,7 @@ struct Eq5NewtonOptions {
   bool predictor_corrector = true;
   bool prestress_cap = true;  // false: the mean cable force held at the cap (prestress=equal)
   bool stationary_stop = true;
+  int restarts = 5;
 
   static Eq5NewtonOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
@@ -92,6 +99,9 @@ struct Eq5NewtonDetails : SolverDetails {
   // The polish with proximal_weight below 1e-8 was not kept and was run again
   // with 1e-8 (the counts above sum both).
   bool steady_retry = false;
+  // Fresh polishes started from the projected last iterate of a polish that
+  // stalled or spent its budget (the counts above sum them all).
+  int restarts = 0;
   nlohmann::json to_json() const override;
 };
 
