@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,17 @@ Eigen::VectorXd random_point(ScaledEq5& p, const MinimalGeometryChangeNlp& nlp, 
   Eigen::VectorXd y = p.to_scaled(nlp.initial_point(sigma));
   for (int i = 0; i < nlp.num_positions(); ++i) y[i] += 0.05 * u(rng);
   return y;
+}
+
+// Trial 0 of a stress-test family (seed 1) on one of its base scenes; `level`
+// indexes the family's levels.
+Structure stress_case(const std::string& base_name, const std::string& family, int level) {
+  constexpr std::uint64_t kStressSeed = 1;
+  const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
+  const auto base = std::find_if(bases.begin(), bases.end(),
+                                 [&](const scenes::BaseScene& b) { return b.name == base_name; });
+  if (base == bases.end()) throw std::runtime_error("no stress-test scene " + base_name);
+  return scenes::make_family_case(base->scene, family, level, 0, kStressSeed);
 }
 
 double relative_error(const Dense& analytic, const Dense& fd) {
@@ -496,13 +508,8 @@ TEST(Eq5Newton, PlainTowerFarFromEquilibriumReachesIpoptsChange) {
 // alternating-gn's equilibrium is a point of Eq. 5) both polishes do; the
 // answer is then alternating-gn's equilibrium, with the reason in the details.
 TEST(Eq5Newton, NeverKeepsAPolishFartherThanTheStart) {
-  const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
-  const auto base = std::find_if(bases.begin(), bases.end(),
-                                 [](const scenes::BaseScene& b) { return b.name == "prism-7-gravity"; });
-  ASSERT_NE(base, bases.end());
   constexpr int kMassesRemoved = 0;
-  constexpr std::uint64_t kStressSeed = 1;
-  const Structure scene = scenes::make_family_case(base->scene, "mass", kMassesRemoved, 0, kStressSeed);
+  const Structure scene = stress_case("prism-7-gravity", "mass", kMassesRemoved);
   ASSERT_FALSE(make_force_scale(scene).has_prestress_cap());
   SolveOptions steady;  // one polish: the steady weight has no retry
   steady.backend_options = {{"proximal_weight", "1e-8"}};
@@ -527,13 +534,8 @@ TEST(Eq5Newton, NeverKeepsAPolishFartherThanTheStart) {
 // the scene, alternating-gn's equilibrium 0.62 m (without restarts from
 // it: PolishRestartsFromTheProjectedPoint).
 TEST(Eq5Newton, KeepsTheProjectedPointOfAStalledPolishWhenItIsCloser) {
-  const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
-  const auto base = std::find_if(bases.begin(), bases.end(),
-                                 [](const scenes::BaseScene& b) { return b.name == "octahedron"; });
-  ASSERT_NE(base, bases.end());
   constexpr int kOneTenThousandth = 1;
-  constexpr std::uint64_t kStressSeed = 1;
-  const Structure scene = scenes::make_family_case(base->scene, "near-coincident", kOneTenThousandth, 0, kStressSeed);
+  const Structure scene = stress_case("octahedron", "near-coincident", kOneTenThousandth);
   SolveOptions no_restarts;
   no_restarts.backend_options = {{"restarts", "0"}};
   const SolveResult r = make_solver("eq5-newton")->Solve(scene, no_restarts);
@@ -555,16 +557,12 @@ TEST(Eq5Newton, KeepsTheProjectedPointOfAStalledPolishWhenItIsCloser) {
 // the metric, steps cut to the fraction to the boundary) still reaches
 // equilibrium. On the stress test's 8-strut gravity prism with 3 % node noise
 // (trial 0, seed 1) the polish stalls after 10 Newton iterations and its
-// projected point is 0.2143 m from the scene; without the safeguard the
-// answer was alternating-gn's equilibrium, 0.2820 m away.
+// projected point is 0.2143 m from the scene; the plain projection leaves
+// the bounds there, and without the safeguard the answer would be
+// alternating-gn's equilibrium, 0.2820 m away.
 Structure noisy_gravity_prism() {
-  const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
-  const auto base = std::find_if(bases.begin(), bases.end(),
-                                 [](const scenes::BaseScene& b) { return b.name == "prism-8-gravity"; });
-  EXPECT_NE(base, bases.end());
   constexpr int kThreePerCentNoise = 3;
-  constexpr std::uint64_t kStressSeed = 1;
-  return scenes::make_family_case(base->scene, "noise", kThreePerCentNoise, 0, kStressSeed);
+  return stress_case("prism-8-gravity", "noise", kThreePerCentNoise);
 }
 
 TEST(Eq5Newton, SafeguardedProjectionRescuesAStalledPolish) {
@@ -608,14 +606,8 @@ TEST(Eq5Newton, PolishRestartsFromTheProjectedPoint) {
   EXPECT_NE(r.message.find("local optimum of Eq. 5"), std::string::npos) << r.message;
   EXPECT_EQ(r.message.find("not a local optimum"), std::string::npos) << r.message;
 
-  const std::vector<scenes::BaseScene> bases = scenes::base_scenes(std::string(TENSEGRITY_SOURCE_DIR) + "/data");
-  const auto base = std::find_if(bases.begin(), bases.end(),
-                                 [](const scenes::BaseScene& b) { return b.name == "octahedron"; });
-  ASSERT_NE(base, bases.end());
   constexpr int kOneTenThousandth = 1;
-  constexpr std::uint64_t kStressSeed = 1;
-  const Structure octahedron =
-      scenes::make_family_case(base->scene, "near-coincident", kOneTenThousandth, 0, kStressSeed);
+  const Structure octahedron = stress_case("octahedron", "near-coincident", kOneTenThousandth);
   SolveOptions no_restarts;
   no_restarts.backend_options = {{"restarts", "0"}};
   const SolveResult stalled = make_solver("eq5-newton")->Solve(octahedron, no_restarts);
