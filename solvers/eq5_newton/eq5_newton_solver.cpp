@@ -118,7 +118,8 @@ struct PolishRun {
   // stalled or spent its budget, verified and is closer to the scene than
   // alternating-gn's equilibrium (interior_newton.hpp).
   bool projected = false;
-  bool steady = false;       // run with kSteadyProximalWeight
+  // What it ran with, for a restart from its answer.
+  Eq5NewtonOptions settings;
   PrestressRow row = PrestressRow::Equal;
   // Projected after a stall or at the budget: a closer equilibrium, not a KKT point.
   bool last_iterate_projected() const { return projected && outcome.last_iterate_projected; }
@@ -156,6 +157,7 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
 
   PolishRun run;
   run.cap_slack = problem.has_cap_slack();
+  run.settings = newton;
   run.row = row;
   auto positions_and_forces = [&](const Eigen::VectorXd& y) {
     const Eigen::VectorXd z = problem.to_si(y);
@@ -218,13 +220,6 @@ void record_multipliers(const PolishRun& run, double reference_force, Eq5NewtonD
   details.eq5_force_bound_multipliers = run.outcome.bound_multipliers.head(run.forces.size()) / reference_force;
 }
 
-// The KKT residuals of a polish whose answer stays (the counts keep summing).
-void keep_residuals_of(const InteriorNewtonOutcome& outcome, Eq5NewtonDetails& details) {
-  details.dual_infeasibility = outcome.dual_infeasibility;
-  details.constraint_violation = outcome.constraint_violation;
-  details.complementarity = outcome.complementarity;
-}
-
 // The KKT residuals of an earlier polish whose answer stays (the counts keep summing).
 void keep_residuals(const Eq5NewtonDetails& earlier, Eq5NewtonDetails& details) {
   details.dual_infeasibility = earlier.dual_infeasibility;
@@ -251,36 +246,29 @@ SolveResult verified_answer(std::string message, const Eigen::Matrix3Xd& positio
   return result;
 }
 
-Eq5NewtonOptions steady_options(const Eq5NewtonOptions& newton) {
-  Eq5NewtonOptions steady = newton;
-  steady.proximal_weight = kSteadyProximalWeight;
-  return steady;
-}
-
 // Replaces `run`, a kept polish that ended at its projected last iterate, by
 // fresh polishes from that point with the same settings and cable-sum row
 // while each is kept (a verified answer closer than its start), time is left
 // and the last one gained kRestartGain; stops at the first local optimum.
-void restart_from_projected_points(const Structure& part, const SolveOptions& options,
-                                   const Eq5NewtonOptions& settings, const ForceScale& scale,
+void restart_from_projected_points(const Structure& part, const SolveOptions& options, const ForceScale& scale,
                                    TraceRecorder& recorder, ClosestIterate& closest, Eq5NewtonDetails& details,
                                    PolishRun& run) {
   double gain = 1.0;
-  for (int r = 0; r < settings.restarts && run.kept() && run.last_iterate_projected() && gain >= kRestartGain &&
+  for (int r = 0; r < run.settings.restarts && run.kept() && run.last_iterate_projected() && gain >= kRestartGain &&
                   recorder.seconds() < options.time_limit_s;
        ++r) {
     SolveResult from;
     from.positions = run.positions;
     from.forces = run.forces;
-    PolishRun next = polish(part, options, settings, scale, run.row, from, recorder, closest);
+    const Eq5NewtonDetails before = details;
+    PolishRun next = polish(part, options, run.settings, scale, run.row, from, recorder, closest);
     add_counts(next.outcome, details);
     ++details.restarts;
     if (!next.kept()) {
-      keep_residuals_of(run.outcome, details);
+      keep_residuals(before, details);
       return;
     }
     gain = 1.0 - next.check.geometry_change / run.check.geometry_change;
-    next.steady = run.steady;
     run = std::move(next);
   }
 }
@@ -417,10 +405,10 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   const bool stationary_fallback = run.projected && (details->prestress_held || run.last_iterate_projected());
   if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
       part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
-    const Eq5NewtonOptions steady = steady_options(newton);
+    Eq5NewtonOptions steady = newton;
+    steady.proximal_weight = kSteadyProximalWeight;
     const Eq5NewtonDetails before = *details;
     PolishRun retry = polish_sequence(steady);
-    retry.steady = true;
     details->steady_retry = true;
     if (stationary_fallback && !(retry.kept() && retry.check.geometry_change < run.check.geometry_change)) {
       // The first answer stays, with its own KKT residuals; the counts sum both.
@@ -430,8 +418,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
       run = std::move(retry);
     }
   }
-  restart_from_projected_points(part, options, run.steady ? steady_options(newton) : newton, scale, recorder, closest,
-                                *details, run);
+  restart_from_projected_points(part, options, scale, recorder, closest, *details, run);
   details->polish = run.verified_rejected          ? "rejected_by_verification"
                     : run.farther_than_start       ? "farther_than_start"
                     : run.last_iterate_projected() ? polish_name(run.outcome.status) + "_projected"
