@@ -148,8 +148,9 @@ def two_core_runs(paths):
     return runs
 
 
-def write_two_cores(runs, out):
-    """two_cores.csv and the Markdown table with the median measured speed-up."""
+def write_two_cores(runs, out, after_other_tables):
+    """two_cores.csv and the Markdown table with the median measured speed-up, appended to
+    table.md after the other tables, or table.md's only content."""
     with open(os.path.join(out, "two_cores.csv"), "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["name", "run"] + TWO_CORE_FIELDS)
@@ -166,7 +167,7 @@ def write_two_cores(runs, out):
     lines += ["", f"Median measured speed-up: {statistics.median(r['measured_speedup'] for r in runs):.2f} "
               f"over {len(runs)} run(s) on {int(runs[0]['cores'])} core(s)."]
     text = "\n".join(lines) + "\n"
-    with open(os.path.join(out, "table.md"), "a") as f:
+    with open(os.path.join(out, "table.md"), "a" if after_other_tables else "w") as f:
         f.write(text)
     return text
 
@@ -315,15 +316,13 @@ def main():
     if not rows and not two_cores:
         sys.exit("report.py: no compare_bench benchmarks in " + " ".join(a.json))
     if not rows:
-        with open(os.path.join(a.out, "table.md"), "w"):
-            pass
-        print(write_two_cores(two_cores, a.out))
+        print(write_two_cores(two_cores, a.out, after_other_tables=False))
         return
     add_relative_geometry_change(rows)
     sc_backends, fits = scaling(rows, a.out)
     print(write_tables(rows, a.out, fits))
     if two_cores:
-        print(write_two_cores(two_cores, a.out))
+        print(write_two_cores(two_cores, a.out, after_other_tables=True))
 
     backends, tau_max, summary = performance_profile(rows, a.out)
     print("Performance profile over", len({(k[0], k[1]) for k in rows}), "scenes (time to a verified solution):")
