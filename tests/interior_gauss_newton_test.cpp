@@ -247,6 +247,11 @@ TEST(InteriorGaussNewton, OptionsAreChecked) {
   EXPECT_EQ(AlternatingOptions{}.interior_retry.force_weight, 3e5);
   options.backend_options = {{"interior_retry_elements", "-1"}};
   EXPECT_THROW(GaussNewtonAlternatingOptions::FromPairs(options.backend_options), InputError);
+  options.backend_options = {{"interior_last_resort_iterations", "0"}};
+  EXPECT_EQ(GaussNewtonAlternatingOptions::FromPairs(options.backend_options).interior_last_resort.max_iterations, 0);
+  EXPECT_EQ(AlternatingOptions{}.interior_last_resort.force_weight, 30.0);
+  options.backend_options = {{"interior_last_resort_iterations", "-1"}};
+  EXPECT_THROW(GaussNewtonAlternatingOptions::FromPairs(options.backend_options), InputError);
   o = patient_interior_options();
   o.progress_ratio = 0.0;
   EXPECT_FALSE(o.IsValid());

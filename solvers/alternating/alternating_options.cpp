@@ -52,6 +52,7 @@ bool AlternatingOptions::IsValid(std::string* why) const {
                 "interior_anchor_until in [0, 1]");
   if (!interior_retry.IsValid()) return fail("interior_retry_iterations must be in [0, 1000000]");
   if (interior_retry_elements < 0) return fail("interior_retry_elements must be in [0, 1000000]");
+  if (!interior_last_resort.IsValid()) return fail("interior_last_resort_iterations must be in [0, 1000000]");
   return true;
 }
 
@@ -100,6 +101,9 @@ GaussNewtonAlternatingOptions GaussNewtonAlternatingOptions::FromPairs(const Opt
   o.interior_retry.margin_fraction = o.margin;
   o.interior_retry_elements =
       reader.integer("interior_retry_elements", o.interior_retry_elements, 0, kLargestIterationCount);
+  o.interior_last_resort.max_iterations = reader.integer(
+      "interior_last_resort_iterations", o.interior_last_resort.max_iterations, 0, kLargestIterationCount);
+  o.interior_last_resort.margin_fraction = o.margin;
   reader.reject_unknown();
   return o;
 }

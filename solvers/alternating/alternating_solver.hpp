@@ -103,6 +103,10 @@ struct AlternatingOptions {
   // interior_retry.max_iterations = 0 skips it.
   InteriorGaussNewtonOptions interior_retry = patient_interior_options();
   int interior_retry_elements = 4000;
+  // The last attempt, when the alternating runs do not converge either; the
+  // runs leave it interior_last_resort.max_iterations of the iteration budget
+  // (at most a tenth). interior_last_resort.max_iterations = 0 skips it.
+  InteriorGaussNewtonOptions interior_last_resort = stiff_force_interior_options();
 
   bool IsValid(std::string* why = nullptr) const;
 };
@@ -118,7 +122,8 @@ struct FaithfulAlternatingOptions : AlternatingOptions {
 // qp_every_step, qp_on_crossing, move_bound_forces, anchor, restarts,
 // stall_window, stall_ratio, interior_iterations, interior_force_weight,
 // interior_boundary_fraction, interior_anchor_until, interior_retry_iterations,
-// interior_retry_elements, epsilon_cvg, mu, margin.
+// interior_retry_elements, interior_last_resort_iterations, epsilon_cvg, mu,
+// margin.
 struct GaussNewtonAlternatingOptions : AlternatingOptions {
   static GaussNewtonAlternatingOptions FromPairs(const OptionPairs& pairs);
 };

@@ -32,6 +32,15 @@ InteriorGaussNewtonOptions patient_interior_options() {
   return o;
 }
 
+InteriorGaussNewtonOptions stiff_force_interior_options() {
+  InteriorGaussNewtonOptions o;
+  o.max_iterations = 150;
+  o.force_weight = 30.0;
+  o.progress_window = 50;
+  o.progress_ratio = 0.9;
+  return o;
+}
+
 namespace {
 
 // Near the solution the normal matrix hardly changes from one step to the

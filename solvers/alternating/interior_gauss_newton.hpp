@@ -60,6 +60,16 @@ struct InteriorGaussNewtonOptions {
 // first attempt stalls and this one converges linearly.
 InteriorGaussNewtonOptions patient_interior_options();
 
+// The last attempt of `alternating-gn`, run when the alternating runs after
+// the interior attempts do not converge either: forces a hundred times dearer
+// than in the first attempt (30), so that the geometry carries the change. A
+// load the structure was not shaped for (the gravity tower loaded sideways)
+// needs forces many times the start's, which the affine weights of the
+// cheaper-force attempts grow too slowly; moving the geometry reaches an
+// equilibrium in a few steps, farther from the input (Eq. 5's polish, in
+// eq5-newton or ipopt, then brings it back).
+InteriorGaussNewtonOptions stiff_force_interior_options();
+
 SolveResult solve_interior_gauss_newton(const Structure& part, const SolveOptions& options,
                                         const InteriorGaussNewtonOptions& interior);
 
