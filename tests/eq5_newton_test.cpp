@@ -635,6 +635,19 @@ TEST(Eq5Newton, PolishesAlternatingGnsLastAttemptOnASidewaysLoad) {
       << gn.message;
   constexpr double kStiffAttemptChange = 2.6062;
   EXPECT_NEAR(gn.stats.geometry_change, kStiffAttemptChange, 1e-3);
+  SolveOptions without_last_attempt;
+  without_last_attempt.backend_options = {{"interior_last_resort_iterations", "0"}};
+  const SolveResult stalled = make_solver("alternating-gn")->Solve(tower, without_last_attempt);
+  EXPECT_EQ(stalled.status, Status::Stalled) << stalled.message;
+  EXPECT_GT(stalled.stats.relative_residual, 1.0);
+  // The attempt stays within a small iteration budget (a tenth of it is
+  // kept from the alternating runs).
+  SolveOptions small_budget;
+  constexpr int kSmallBudget = 50;
+  small_budget.max_iterations = kSmallBudget;
+  const SolveResult capped = make_solver("alternating-gn")->Solve(tower, small_budget);
+  EXPECT_LE(capped.stats.iterations, kSmallBudget);
+  EXPECT_NE(capped.status, Status::Converged) << capped.message;
   const SolveResult r = make_solver("eq5-newton")->Solve(tower, SolveOptions{});
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   std::printf("sideways-loaded tower: alternating-gn %.9g m, eq5-newton %.9g m\n", gn.stats.geometry_change,

@@ -493,10 +493,6 @@ namespace {
 struct RestartScaling {
   double sigma_weight, max_step, lambda;
 };
-// The last attempt's steps are at most this share of the iteration budget:
-// the default 2000 leave the alternating runs 1850, and over the stress test
-// none that converges takes more than 1802.
-constexpr int kLastResortBudgetDivisor = 10;
 constexpr std::array<RestartScaling, 1 + kMaxRestarts> kRestartSchedule = {{
     {1.0, 1.0, 1.0},
     {10.0, 1.0, 1.0},
@@ -505,6 +501,25 @@ constexpr std::array<RestartScaling, 1 + kMaxRestarts> kRestartSchedule = {{
     {1.0, 0.2, 1.0},
     {0.1, 1.0, 1.0},
 }};
+// The last attempt's steps are at most this share of the iteration budget:
+// the default 2000 leave the alternating runs at most 1850, and over the
+// stress test none that converges takes more than 1802.
+constexpr int kLastResortBudgetDivisor = 10;
+
+// An interior attempt after earlier ones, within the budget they left
+// (nothing when none is left): its trace timed from the part's start, its
+// steps added to `iterations` and to the details.
+std::optional<SolveResult> later_interior_attempt(const Structure& part, const SolveOptions& options,
+                                                  const InteriorGaussNewtonOptions& interior, double elapsed_s,
+                                                  int& iterations, AlternatingDetails& details) {
+  const SolveOptions so = remaining_budget(options, elapsed_s, iterations, kDefaultIterationBudget);
+  if (so.time_limit_s <= 0.0 || so.max_iterations <= 0) return std::nullopt;
+  SolveResult r = solve_interior_gauss_newton(part, so, interior);
+  for (TracePoint& p : r.trace) p.seconds += elapsed_s;
+  details.interior_iterations += r.stats.iterations;
+  iterations += r.stats.iterations;
+  return r;
+}
 
 }  // namespace
 
@@ -559,27 +574,22 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
     }
   }
   // The retry belongs to the interior attempt: interior_iterations=0 skips both.
+  auto finish = [&](SolveResult r) {
+    r.stats.iterations = iterations;
+    r.stats.seconds = elapsed();
+    r.details = {std::make_shared<const AlternatingDetails>(details)};
+    return r;
+  };
   if (alternating.interior.max_iterations > 0 && alternating.interior_retry.max_iterations > 0 &&
       part.num_elements() >= alternating.interior_retry_elements && best.status != Status::Converged) {
-    const SolveOptions so = remaining_budget(options, elapsed(), iterations, kDefaultIterationBudget);
-    if (so.time_limit_s > 0.0 && so.max_iterations > 0) {
-      const double offset = elapsed();
-      SolveResult retry = solve_interior_gauss_newton(part, so, alternating.interior_retry);
-      for (TracePoint& p : retry.trace) p.seconds += offset;
-      details.interior_iterations += retry.stats.iterations;
-      iterations += retry.stats.iterations;
-      if (retry.status == Status::Converged) {
-        best = std::move(retry);
-        if (!exceeds_cap(part, options, alternating.margin, best)) {
-          best.stats.iterations = iterations;
-          best.stats.seconds = elapsed();
-          best.details = {std::make_shared<const AlternatingDetails>(details)};
-          return best;
-        }
-      }
+    std::optional<SolveResult> retry =
+        later_interior_attempt(part, options, alternating.interior_retry, elapsed(), iterations, details);
+    if (retry && retry->status == Status::Converged) {
+      best = std::move(*retry);
+      if (!exceeds_cap(part, options, alternating.margin, best)) return finish(std::move(best));
     }
   }
-  // The alternating runs leave the last attempt its steps.
+  // The free alternating runs leave the last attempt its steps.
   const int last_resort_steps =
       alternating.interior.max_iterations > 0
           ? std::min(alternating.interior_last_resort.max_iterations,
@@ -595,8 +605,8 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
       o.sigma_weight *= kRestartSchedule[a].sigma_weight;
       o.max_step *= kRestartSchedule[a].max_step;
       o.lambda *= kRestartSchedule[a].lambda;
-      const SolveOptions so =
-          remaining_budget(options, elapsed(), iterations + last_resort_steps, kDefaultIterationBudget);
+      const int reserved = hold_cap ? 0 : last_resort_steps;
+      const SolveOptions so = remaining_budget(options, elapsed(), iterations + reserved, kDefaultIterationBudget);
       // The remainder must stay positive: 0 would mean "the default budget".
       if ((a > 0 || iterations > 0) && (so.time_limit_s <= 0.0 || so.max_iterations <= 0)) break;
       const double offset = elapsed();
@@ -627,25 +637,16 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
     }
   }
   if (best.status != Status::Converged && best.status != Status::TimeLimit && last_resort_steps > 0) {
-    const SolveOptions so = remaining_budget(options, elapsed(), iterations, kDefaultIterationBudget);
-    if (so.time_limit_s > 0.0 && so.max_iterations > 0) {
-      const double offset = elapsed();
-      SolveResult last = solve_interior_gauss_newton(part, so, alternating.interior_last_resort);
-      for (TracePoint& p : last.trace) p.seconds += offset;
-      details.interior_iterations += last.stats.iterations;
-      iterations += last.stats.iterations;
-      if (last.status == Status::Converged && !exceeds_cap(part, options, alternating.margin, last)) {
-        last.message += " (the last, stiff-force attempt: the alternating runs ended " +
-                        std::string(to_string(best.status)) + ")";
-        details.held_at_prestress_cap = false;
-        best = std::move(last);
-      }
+    std::optional<SolveResult> last =
+        later_interior_attempt(part, options, alternating.interior_last_resort, elapsed(), iterations, details);
+    if (last && last->status == Status::Converged && !exceeds_cap(part, options, alternating.margin, *last)) {
+      last->message += " (the last, stiff-force attempt: the alternating runs ended " +
+                       std::string(to_string(best.status)) + ")";
+      details.held_at_prestress_cap = false;
+      best = std::move(*last);
     }
   }
-  best.stats.iterations = iterations;
-  best.stats.seconds = elapsed();
-  best.details = {std::make_shared<const AlternatingDetails>(details)};
-  return best;
+  return finish(std::move(best));
 }
 
 SolveResult AlternatingSolver::DoSolve(const PartProblem& problem, const FaithfulAlternatingOptions& options) const {
