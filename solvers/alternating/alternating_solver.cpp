@@ -557,7 +557,7 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
   // counted from the start of the first run. The interior attempt goes first:
   // when it converges (within the prestress cap) it is the answer. Under
   // gravity, an answer above the cap is solved again with the cable sum held
-  // at the cap.
+  // at the cap. Where nothing converges, the last, stiff-force attempt.
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   int iterations = 0;
@@ -573,13 +573,13 @@ SolveResult solve_gauss_newton_part(const Structure& part, const SolveOptions& o
       return best;
     }
   }
-  // The retry belongs to the interior attempt: interior_iterations=0 skips both.
   auto finish = [&](SolveResult r) {
     r.stats.iterations = iterations;
     r.stats.seconds = elapsed();
     r.details = {std::make_shared<const AlternatingDetails>(details)};
     return r;
   };
+  // The retry belongs to the interior attempt: interior_iterations=0 skips both.
   if (alternating.interior.max_iterations > 0 && alternating.interior_retry.max_iterations > 0 &&
       part.num_elements() >= alternating.interior_retry_elements && best.status != Status::Converged) {
     std::optional<SolveResult> retry =
