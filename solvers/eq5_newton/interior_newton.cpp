@@ -217,15 +217,14 @@ void evaluate(ScaledEq5& problem, const Eigen::VectorXd& y, MeritPoint& p) {
 // below `tolerance` or stops falling (its round-off floor). Without w a step
 // that leaves the bounds fails the projection; with it each step is cut to
 // the fraction to the boundary. False when a step fails or is not finite.
-bool project_with_metric(ScaledEq5& problem, KktSystem& kkt, const Eigen::VectorXd& lambda, const Eigen::VectorXd& v,
-                         double tolerance, double barrier_weight, int max_steps, Eigen::VectorXd& y,
-                         MeritPoint& here) {
+// `no_curvature`: the Hessian's pattern with zero values.
+bool project_with_metric(ScaledEq5& problem, KktSystem& kkt, const Eigen::SparseMatrix<double>& no_curvature,
+                         const Eigen::VectorXd& v, double tolerance, double barrier_weight, int max_steps,
+                         Eigen::VectorXd& y, MeritPoint& here) {
   const int n = problem.num_variables(), mc = problem.num_constraints(), nq = problem.num_positions();
   const int m = problem.num_bounded();
   const Eigen::VectorXd& S = problem.bound_signs();
   const bool safeguarded = barrier_weight > 0.0;
-  Eigen::SparseMatrix<double> no_curvature = problem.hessian(y, lambda);
-  no_curvature.coeffs().setZero();
   constexpr double kUnitMetric = 1.0;
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + mc), step, y_next, metric;
   MeritPoint next;
@@ -256,9 +255,12 @@ bool project_with_metric(ScaledEq5& problem, KktSystem& kkt, const Eigen::Vector
 // from the point it reached.
 bool project_onto_constraints(ScaledEq5& problem, KktSystem& kkt, const Eigen::VectorXd& lambda,
                               const Eigen::VectorXd& v, double tolerance, Eigen::VectorXd& y, MeritPoint& here) {
+  Eigen::SparseMatrix<double> no_curvature = problem.hessian(y, lambda);
+  no_curvature.coeffs().setZero();
   constexpr double kPlainMetric = 0.0;
-  if (project_with_metric(problem, kkt, lambda, v, tolerance, kPlainMetric, kProjectionSteps, y, here)) return true;
-  return project_with_metric(problem, kkt, lambda, v, tolerance, kSafeguardBarrierWeight,
+  if (project_with_metric(problem, kkt, no_curvature, v, tolerance, kPlainMetric, kProjectionSteps, y, here))
+    return true;
+  return project_with_metric(problem, kkt, no_curvature, v, tolerance, kSafeguardBarrierWeight,
                              kSafeguardedProjectionSteps, y, here);
 }
 
