@@ -658,6 +658,45 @@ TEST(Eq5Newton, PolishesAlternatingGnsLastAttemptOnASidewaysLoad) {
   EXPECT_TRUE(verify(tower, r.positions, r.forces, SolveOptions{}.tolerance).ok);
 }
 
+// Where alternating-gn ends without an equilibrium, the interior Newton
+// method (which needs no feasible start) polishes from its last iterate, and
+// when that polish is not kept, from the scene's geometry with the stress QP's
+// forces. Two near-coincident prisms of the stress test: with gravity the
+// first start reaches a KKT point; without, only the second does (after the
+// first one's polishes stall).
+TEST(Eq5Newton, PolishesWhereAlternatingGnFindsNoEquilibrium) {
+  constexpr int kNodesApart1e4 = 1;
+  struct Case {
+    const char* base;
+    const char* start;
+    double optimum_change;  // m, measured
+  };
+  for (const Case& c : {Case{"prism-11-gravity", "last_iterate", 1.84869648},
+                        Case{"prism-8", "scene", 1.7885092}}) {
+    SCOPED_TRACE(c.base);
+    const Structure scene = stress_case(c.base, "near-coincident", kNodesApart1e4);
+    SolveOptions without_fallback;
+    without_fallback.backend_options = {{"fallback_starts", "off"}};
+    const SolveResult unpolished = make_solver("eq5-newton")->Solve(scene, without_fallback);
+    EXPECT_NE(unpolished.status, Status::Converged) << unpolished.message;
+    EXPECT_NE(unpolished.message.find("no Newton polish"), std::string::npos) << unpolished.message;
+    EXPECT_EQ(newton_details(unpolished).polish, "not_run");
+
+    const SolveResult r = make_solver("eq5-newton")->Solve(scene, SolveOptions{});
+    ASSERT_EQ(r.status, Status::Converged) << r.message;
+    const Eq5NewtonDetails& d = newton_details(r);
+    EXPECT_EQ(d.polish, "kept");
+    EXPECT_EQ(d.polish_start, c.start);
+    EXPECT_EQ(d.scene_polish, std::string(c.start) == "scene");
+    EXPECT_EQ(d.to_json().at("polish_start"), c.start);
+    EXPECT_NE(r.message.find("local optimum of Eq. 5"), std::string::npos) << r.message;
+    EXPECT_LE(std::max({d.dual_infeasibility, d.complementarity}), Eq5NewtonOptions{}.optimality_tolerance);
+    const Verification v = verify(scene, r.positions, r.forces, SolveOptions{}.tolerance);
+    EXPECT_TRUE(v.ok) << v.relative_residual;
+    EXPECT_NEAR(v.geometry_change, c.optimum_change, 1e-5 * c.optimum_change);
+  }
+}
+
 TEST(Eq5Newton, OptionsAreTypedAndRangeChecked) {
   EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"newton_iterations", "7"}}).newton_iterations, 7);
   EXPECT_EQ(Eq5NewtonOptions::FromPairs({{"restarts", "0"}}).restarts, 0);
@@ -676,6 +715,9 @@ TEST(Eq5Newton, OptionsAreTypedAndRangeChecked) {
   EXPECT_TRUE(Eq5NewtonOptions{}.prestress_cap);
   EXPECT_FALSE(Eq5NewtonOptions::FromPairs({{"prestress", "equal"}}).prestress_cap);
   EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"prestress", "free"}}), OptionError);
+  EXPECT_TRUE(Eq5NewtonOptions{}.fallback_starts);
+  EXPECT_FALSE(Eq5NewtonOptions::FromPairs({{"fallback_starts", "off"}}).fallback_starts);
+  EXPECT_THROW(Eq5NewtonOptions::FromPairs({{"fallback_starts", "no"}}), OptionError);
   EXPECT_TRUE(Eq5NewtonOptions{}.IsValid());
   Eq5NewtonOptions bad;
   bad.initial_barrier = 0.0;

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
+#include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
+#include "kernels/stress_qp.hpp"
 #include "formulations/minimal_geometry_change_nlp.hpp"
 #include "model/verify.hpp"
 #include "solvers/eq5_newton/interior_newton.hpp"
@@ -131,8 +134,8 @@ struct PolishRun {
 // The polish of Eq. 5 with the cable-sum row `row`; every accepted step is
 // recorded after the records already in `recorder`.
 PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5NewtonOptions& newton,
-                 const ForceScale& scale, PrestressRow row, const SolveResult& start, TraceRecorder& recorder,
-                 ClosestIterate& closest) {
+                 const ForceScale& scale, PrestressRow row, const SolveResult& start, bool start_balances,
+                 TraceRecorder& recorder, ClosestIterate& closest) {
   MinimalGeometryChangeNlp nlp(part, scale, row);
   ScaledEq5 problem(nlp);
   Eigen::VectorXd z0(nlp.num_variables());
@@ -180,7 +183,7 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   // Never farther than the start: a point that is not closer to the scene
   // than alternating-gn's equilibrium is not an answer.
   const double start_objective = problem.objective(problem.to_scaled(z0));
-  const bool closer = run.objective < start_objective;
+  const bool closer = !start_balances || run.objective < start_objective;
   if (stationary) {
     run.projected = run.check.ok && closer;
     return run;
@@ -191,7 +194,7 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   const bool clearly_farther =
       run.objective > (1.0 + kFartherObjective) * start_objective + kFartherObjectiveFloor;
   run.farther_than_start =
-      run.check.ok && clearly_farther && start_is_a_point_of_eq5(scale, newton.prestress_cap, start.forces);
+      start_balances && run.check.ok && clearly_farther && start_is_a_point_of_eq5(scale, newton.prestress_cap, start.forces);
   return run;
 }
 
@@ -261,7 +264,7 @@ void restart_from_projected_points(const Structure& part, const SolveOptions& op
     from.positions = run.positions;
     from.forces = run.forces;
     const Eq5NewtonDetails before = details;
-    PolishRun next = polish(part, options, run.settings, scale, run.row, from, recorder, closest);
+    PolishRun next = polish(part, options, run.settings, scale, run.row, from, true, recorder, closest);
     add_counts(next.outcome, details);
     ++details.restarts;
     if (!next.kept()) {
@@ -273,14 +276,52 @@ void restart_from_projected_points(const Structure& part, const SolveOptions& op
   }
 }
 
+// Where the polish that gave the answer started, for its message.
+std::string polish_start_description(const Eq5NewtonDetails& details, const SolveResult& start) {
+  const std::string iterations = std::to_string(details.start_iterations) + " iterations";
+  if (details.polish_start == "equilibrium") return "alternating-gn's equilibrium (" + iterations + ")";
+  const std::string how = iterations + ", " + start.message;
+  const std::string scene = "the scene's geometry with its stress QP's forces";
+  if (details.polish_start == "scene") return scene + " (" + how + ")";
+  return "alternating-gn's last iterate" + (details.scene_polish ? ", then " + scene : std::string()) + " (" + how +
+         ")";
+}
+
+// The stress QP's forces at the scene's geometry, with Eq. 5's own
+// cable-sum row (under gravity the mean cable force held at the cap), so
+// that the start meets that row; `fallback` when the QP gives no finite forces.
+Eigen::VectorXd scene_forces(const Structure& part, const ForceScale& scale, const Eigen::VectorXd& fallback) {
+  const Equilibrium eq(part);
+  StressQp qp(eq, scale.has_prestress_cap() ? held_at_prestress_cap(scale) : scale);
+  StressQpResult r = qp.solve(Eigen::VectorXd());
+  if (r.sigma.size() != part.num_elements() || !r.sigma.allFinite()) return fallback;
+  return std::move(r.sigma);
+}
+
+// Whether a polish runs although alternating-gn ended without a verified
+// equilibrium: the interior Newton method needs no feasible start, only a
+// finite one, and time left. Not after a proof of infeasibility, nor when
+// alternating-gn spent an iteration budget the caller set (that budget is
+// the whole solve's).
+bool polishes_without_equilibrium(const Eq5NewtonOptions& newton, const SolveResult& start,
+                                  const SolveOptions& options, double seconds) {
+  const bool callers_budget_spent = start.status == Status::MaxIterations && options.max_iterations > 0;
+  return newton.fallback_starts && start.status != Status::Infeasible && start.status != Status::TimeLimit &&
+         !callers_budget_spent && seconds < options.time_limit_s && start.positions.allFinite() &&
+         start.forces.allFinite() && start.forces.size() > 0;
+}
+
 // The closest verified iterate as the answer: an equilibrium closer to the
 // scene than every other candidate, not a local optimum.
 SolveResult closest_iterate_result(const ClosestIterate& closest, const std::string& polish_stop,
-                                   TraceRecorder& recorder, std::shared_ptr<Eq5NewtonDetails> details) {
-  std::string message = "equilibrium closer to the scene than alternating-gn's, not a local optimum of Eq. 5: the "
-                        "closest verified Newton iterate (the polish stopped: " + polish_stop + ") of " +
-                        std::to_string(details->newton_iterations) + " Newton iterations from alternating-gn's "
-                        "equilibrium (" + std::to_string(details->start_iterations) + " iterations)";
+                                   const std::string& polish_start, TraceRecorder& recorder,
+                                   std::shared_ptr<Eq5NewtonDetails> details) {
+  const bool from_equilibrium = details->polish_start == "equilibrium";
+  std::string message = std::string(from_equilibrium ? "equilibrium closer to the scene than alternating-gn's"
+                                                     : "equilibrium") +
+                        ", not a local optimum of Eq. 5: the closest verified Newton iterate (the polish stopped: " +
+                        polish_stop + ") of " + std::to_string(details->newton_iterations) +
+                        " Newton iterations from " + polish_start;
   recorder.record(trace_point(closest.check, static_cast<int>(recorder.trace().size()), 0.0));
   return verified_answer(std::move(message), closest.positions, closest.forces, closest.check, recorder,
                          std::move(details));
@@ -300,6 +341,7 @@ Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
   o.prestress_cap = reader.choice("prestress", "cap", {"cap", "equal"}) == "cap";
   o.stationary_stop = reader.choice("stationary_stop", "on", {"on", "off"}) == "on";
   o.restarts = reader.integer("restarts", o.restarts, 0, kLargestRestarts);
+  o.fallback_starts = reader.choice("fallback_starts", "on", {"on", "off"}) == "on";
   reader.reject_unknown();
   return o;
 }
@@ -334,6 +376,8 @@ nlohmann::json Eq5NewtonDetails::to_json() const {
   if (prestress_held) j["prestress_held"] = true;
   if (steady_retry) j["steady_retry"] = true;
   if (restarts > 0) j["restarts"] = restarts;
+  if (!polish_start.empty()) j["polish_start"] = polish_start;
+  if (scene_polish) j["scene_polish"] = true;
   return j;
 }
 
@@ -357,14 +401,18 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   recorder.trace() = start.trace;
   auto finish_with_start = [&](std::string why) {
     SolveResult r = std::move(start);
-    r.message = "alternating-gn's equilibrium (" + r.message + "); " + why;
+    const bool balances = start_check.ok && r.status == Status::Converged;
+    r.message = std::string(balances ? "alternating-gn's equilibrium (" : "alternating-gn's result (") + r.message +
+                "); " + why;
     r.trace = std::move(recorder.trace());
     r.stats.iterations = static_cast<int>(r.trace.size()) - 1;
     r.stats.seconds = recorder.seconds();
     r.details = {details};
     return r;
   };
-  if (start.status != Status::Converged || !start_check.ok) return finish_with_start("no Newton polish");
+  const bool start_balances = start.status == Status::Converged && start_check.ok;
+  if (!start_balances && !polishes_without_equilibrium(newton, start, options, recorder.seconds()))
+    return finish_with_start("no Newton polish");
 
   // 2. Newton on Eq. 5's KKT conditions from there. Under gravity with
   // prestress=cap, when the polish with the cap as a bound came close but was
@@ -373,15 +421,15 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // prestress=cap also keeps the held optimum.
   const ForceScale scale = make_force_scale(part, options.margin_fraction, options.prestress_factor);
   ClosestIterate closest;
-  auto polish_sequence = [&](const Eq5NewtonOptions& settings) {
+  auto polish_sequence = [&](const Eq5NewtonOptions& settings, const SolveResult& from, bool balances) {
     PolishRun run = polish(part, options, settings, scale,
-                           settings.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal, start, recorder,
-                           closest);
+                           settings.prestress_cap ? PrestressRow::Cap : PrestressRow::Equal, from, balances,
+                           recorder, closest);
     add_counts(run.outcome, *details);
     details->prestress_held = false;
     if ((!run.kept() || run.last_iterate_projected()) && run.cap_slack && came_close(run.outcome)) {
       const Eq5NewtonDetails before = *details;
-      PolishRun held = polish(part, options, settings, scale, PrestressRow::Equal, start, recorder, closest);
+      PolishRun held = polish(part, options, settings, scale, PrestressRow::Equal, from, balances, recorder, closest);
       add_counts(held.outcome, *details);
       // A capped polish's projected last iterate stays unless the held one does better.
       if (!run.kept() || (held.kept() && held.check.geometry_change < run.check.geometry_change)) {
@@ -393,7 +441,6 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     }
     return run;
   };
-  PolishRun run = polish_sequence(newton);
   // A small proximal weight lets the forces follow the self-stresses quickly,
   // but on degenerate scenes (elements of very different lengths, nearly
   // coincident nodes) its steps can stall; there the steadier weight of
@@ -402,20 +449,40 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // A held polish that ended stationary is only a fallback's answer (the
   // capped optimum can lie much closer): the retry runs then too, and the
   // closer of the two answers is kept.
-  const bool stationary_fallback = run.projected && (details->prestress_held || run.last_iterate_projected());
-  if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
-      part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
-    Eq5NewtonOptions steady = newton;
-    steady.proximal_weight = kSteadyProximalWeight;
-    const Eq5NewtonDetails before = *details;
-    PolishRun retry = polish_sequence(steady);
-    details->steady_retry = true;
-    if (stationary_fallback && !(retry.kept() && retry.check.geometry_change < run.check.geometry_change)) {
-      // The first answer stays, with its own KKT residuals; the counts sum both.
-      details->prestress_held = before.prestress_held;
-      keep_residuals(before, *details);
-    } else {
-      run = std::move(retry);
+  auto polish_with_steady_retry = [&](const SolveResult& from, bool balances) {
+    PolishRun run = polish_sequence(newton, from, balances);
+    const bool stationary_fallback = run.projected && (details->prestress_held || run.last_iterate_projected());
+    if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
+        part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
+      Eq5NewtonOptions steady = newton;
+      steady.proximal_weight = kSteadyProximalWeight;
+      const Eq5NewtonDetails before = *details;
+      PolishRun retry = polish_sequence(steady, from, balances);
+      details->steady_retry = true;
+      if (stationary_fallback && !(retry.kept() && retry.check.geometry_change < run.check.geometry_change)) {
+        // The first answer stays, with its own KKT residuals; the counts sum both.
+        details->prestress_held = before.prestress_held;
+        keep_residuals(before, *details);
+      } else {
+        run = std::move(retry);
+      }
+    }
+    return run;
+  };
+  PolishRun run = polish_with_steady_retry(start, start_balances);
+  details->polish_start = start_balances ? "equilibrium" : "last_iterate";
+  // Without an equilibrium to start from, the scene's own geometry with its
+  // stress QP's forces (ipopt's start) is the other one: on near-degenerate
+  // scenes each of the two reaches optima the other does not.
+  if (!start_balances && !run.kept() && recorder.seconds() < options.time_limit_s) {
+    SolveResult scene_start;
+    scene_start.positions = part.positions;
+    scene_start.forces = scene_forces(part, scale, start.forces);
+    PolishRun from_scene = polish_with_steady_retry(scene_start, false);
+    details->scene_polish = true;
+    if (from_scene.kept()) {
+      run = std::move(from_scene);
+      details->polish_start = "scene";
     }
   }
   restart_from_projected_points(part, options, scale, recorder, closest, *details, run);
@@ -430,10 +497,13 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // closer than the start. Where it is not a local optimum, the closest
   // verified iterate of any polish is the answer when it is closer still.
   const bool optimum = run.kept() && !run.last_iterate_projected();
-  const double to_beat = run.kept() ? run.check.geometry_change : start_check.geometry_change;
+  const double to_beat = run.kept()         ? run.check.geometry_change
+                         : start_balances ? start_check.geometry_change
+                                          : std::numeric_limits<double>::infinity();
   if (!optimum && closest.found && closest.check.geometry_change < to_beat) {
     details->polish = "closest_iterate";
-    return closest_iterate_result(closest, run.outcome.message, recorder, details);
+    return closest_iterate_result(closest, run.outcome.message, polish_start_description(*details, start), recorder,
+                                  details);
   }
   if (!run.kept()) {
     if (static_cast<int>(recorder.trace().size()) > start_records)
@@ -446,10 +516,11 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   if (run.cap_slack)
     details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
   if (run.outcome.status == Status::Converged) record_multipliers(run, scale.reference_force, *details);
-  const char* answer =
-      run.last_iterate_projected() ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
-      : run.projected              ? "approximate local optimum"
-                                   : "local optimum";
+  const char* answer = run.last_iterate_projected()
+                           ? (start_balances ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
+                                             : "equilibrium, not a local optimum")
+                       : run.projected ? "approximate local optimum"
+                                       : "local optimum";
   std::string message = std::string(answer) + " of Eq. 5" +
                         std::string(details->prestress_held ? " held at the prestress cap" : "") + ": " +
                         run.outcome.message + " after " + std::to_string(details->newton_iterations) +
@@ -457,8 +528,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
                         (details->restarts > 0 ? " (" + std::to_string(details->restarts) +
                                                    (details->restarts == 1 ? " restart)" : " restarts)")
                                              : "") +
-                        " from alternating-gn's equilibrium (" +
-                        std::to_string(details->start_iterations) + " iterations)";
+                        " from " + polish_start_description(*details, start);
   if (static_cast<int>(recorder.trace().size()) == start_records)
     recorder.record(trace_point(run.check, start_records, run.objective));
   return verified_answer(std::move(message), run.positions, run.forces, run.check, recorder, std::move(details));

@@ -4,8 +4,12 @@
 // from there, so that the answer is a local optimum of the geometry change.
 //
 //   1. alternating-gn (solvers/alternating) with its default options reaches
-//      a verified equilibrium from the scene; when it does not, its result is
-//      the answer.
+//      a verified equilibrium from the scene. When it does not (stalled, out
+//      of its default budget), the polish below starts from its last
+//      iterate, and when that polish is not kept, from the scene's geometry
+//      with the stress QP's forces there (fallback_starts). Where neither is
+//      kept, or alternating-gn ran out of time, spent an iteration budget the
+//      caller set or proved the part infeasible, its result is the answer.
 //   2. A primal-dual interior-point Newton method (interior_newton.hpp) on the
 //      dimensionless Eq. 5 (scaled_eq5.hpp) starts from that equilibrium: the
 //      objective still measures the change from the scene, and under gravity
@@ -14,20 +18,20 @@
 //      below 1e-6, but was not kept, a second one holds it there) or held
 //      there (prestress=equal).
 //   3. The Newton answer is kept when it is closer to the scene than the
-//      start and either its KKT test passed and model/verify accepts it, or
-//      the stationary stop of interior_newton.hpp ended it (the objective
-//      stopped changing while the KKT error crawled) and its last iterate,
-//      projected onto the constraints, verifies (`polish:
-//      objective_stationary`, an approximate local optimum), or, when no
-//      polish does either, its line search stalled or its budget ran out
-//      and the last iterate, projected the same way, verifies (`polish:
-//      stalled_projected` or `max_iterations_projected`, a closer
-//      equilibrium, not a local optimum); otherwise the answer is
-//      alternating-gn's verified equilibrium, and the details say why the
-//      polish was not kept. Where the answer is not a (approximate) local
-//      optimum, the Newton iterate closest to the scene that verifies, of
-//      any polish, replaces it when it is closer (`polish:
-//      closest_iterate`, an equilibrium, not a local optimum).
+//      start (any answer, where the start is no equilibrium) and either its
+//      KKT test passed and model/verify accepts it, or the stationary stop
+//      of interior_newton.hpp ended it (the objective stopped changing while
+//      the KKT error crawled) and its last iterate, projected onto the
+//      constraints, verifies (`polish: objective_stationary`, an approximate
+//      local optimum), or, when no polish does either, its line search
+//      stalled or its budget ran out and the last iterate, projected the
+//      same way, verifies (`polish: stalled_projected` or
+//      `max_iterations_projected`, a closer equilibrium, not a local
+//      optimum); otherwise the answer is alternating-gn's result, and the
+//      details say why the polish was not kept. Where the answer is not a
+//      (approximate) local optimum, the Newton iterate closest to the scene
+//      that verifies, of any polish, replaces it when it is closer
+//      (`polish: closest_iterate`, an equilibrium, not a local optimum).
 //   4. A kept polish that ended at its projected last iterate (stalled or
 //      out of budget) is followed by fresh polishes from that point (new
 //      barrier, multipliers and filter), up to `restarts`, while each is
@@ -45,7 +49,8 @@
 // kappa n_c W, or held at it; default cap, as the other backends),
 // stationary_stop (on | off: the stationary stop above, default on),
 // restarts (0 .. 100, default 5: the fresh polishes of step 4, each with
-// its own newton_iterations).
+// its own newton_iterations), fallback_starts (on | off: the polishes of
+// step 1 without alternating-gn's equilibrium, default on).
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -64,6 +69,7 @@ struct Eq5NewtonOptions {
   bool prestress_cap = true;  // false: the mean cable force held at the cap (prestress=equal)
   bool stationary_stop = true;
   int restarts = 5;
+  bool fallback_starts = true;
 
   static Eq5NewtonOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
@@ -102,6 +108,14 @@ struct Eq5NewtonDetails : SolverDetails {
   // Fresh polishes started from the projected last iterate of a polish that
   // stalled or spent its budget (the counts above sum them all).
   int restarts = 0;
+  // Where the polishes started: "equilibrium" (alternating-gn's), or, where
+  // alternating-gn ended without one, "last_iterate" (its last iterate) or
+  // "scene" (the scene's geometry with its stress QP's forces); empty when no
+  // polish ran. With "last_iterate" and "scene" it is that of the answer's
+  // polish; a closest_iterate answer can come from either.
+  std::string polish_start;
+  // The polish from the scene's geometry ran (its counts are in the sums above).
+  bool scene_polish = false;
   nlohmann::json to_json() const override;
 };
 
