@@ -210,6 +210,18 @@ void evaluate(ScaledEq5& problem, const Eigen::VectorXd& y, MeritPoint& p) {
   p.barrier = -p.d.array().log().sum();
 }
 
+// Whether c meets the stop's test: every node row within `tolerance`, the
+// cable-sum row within the larger of it and the row's rounding floor
+// (scaled_eq5.hpp), which on large structures lies above it while the node
+// rows are met long before.
+bool constraints_met(const ScaledEq5& problem, const Eigen::VectorXd& y, const Eigen::VectorXd& c,
+                     double tolerance) {
+  const int row = problem.has_cable_sum_row() ? problem.num_positions() : -1;
+  for (int i = 0; i < c.size(); ++i)
+    if (i != row && !(std::abs(c[i]) <= tolerance)) return false;
+  return row < 0 || std::abs(c[row]) <= std::max(tolerance, problem.cable_sum_row_floor(y));
+}
+
 // Moves y towards c(y) = 0 by minimal-norm Newton steps in the metric
 // I + Sigma + w / d^2 (Sigma = v / d on the bounded variables, so that those
 // at their bounds stay put; w = 0 or kSafeguardBarrierWeight):
@@ -337,7 +349,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     out.bound_multipliers = v;
     if (out.dual_infeasibility <= settings.optimality_tolerance &&
         out.complementarity <= settings.optimality_tolerance &&
-        out.constraint_violation <= settings.constraint_tolerance) {
+        constraints_met(problem, y, here.c, settings.constraint_tolerance)) {
       out.status = Status::Converged;
       out.message = "KKT conditions of Eq. 5 met";
       return out;

@@ -34,8 +34,9 @@
 // then halving; no restoration phase: a failed search ends `stalled`), and mu
 // falls superlinearly (mu <- max(mu_min, min(0.2 mu, mu^1.5))) whenever the
 // barrier problem is solved to 10 mu. Stop: dual infeasibility and
-// complementarity below optimality_tolerance and |c|_inf below
-// constraint_tolerance (all dimensionless).
+// complementarity below optimality_tolerance and every node row of c below
+// constraint_tolerance, the cable-sum row below the larger of it and the
+// row's rounding floor (ScaledEq5::cable_sum_row_floor; all dimensionless).
 //
 // Stationary stop: on large scenes with many self-stresses the forces drift
 // along them with full steps, each step's bilinear term f = A(q) sigma leaving

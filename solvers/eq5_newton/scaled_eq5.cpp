@@ -2,8 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace tensegrity {
+namespace {
+
+// Rounding of a sum of many terms grows with their number; a few units in
+// the last place of the magnitudes' sum covers what the cable-sum row shows
+// at the optimum of the 80-layer gravity tower (one to two).
+constexpr double kSumRoundingUlps = 8.0;
+
+}  // namespace
 
 Eigen::SparseMatrix<double> sparse_pattern(int num_rows, int num_cols, const std::vector<int>& rows,
                                            const std::vector<int>& cols, int extra_diagonal,
@@ -50,6 +59,7 @@ ScaledEq5::ScaledEq5(MinimalGeometryChangeNlp& nlp) : nlp_(nlp) {
     signs_[e] = std::isfinite(fs.lower[e]) ? 1.0 : -1.0;
     margins_[e] = margin_;
   }
+  if (has_cable_sum_row()) cable_row_ = fs.normalisation_row;
 
   std::vector<int> rows, cols;
   nlp.jacobian_structure(rows, cols);
@@ -122,6 +132,13 @@ const ScaledEq5::SparseMatrix& ScaledEq5::hessian(const Eigen::VectorXd& y, cons
   std::fill(values, values + hessian_.nonZeros(), 0.0);
   for (std::size_t k = 0; k < hess_values_.size(); ++k) values[hess_slot_[k]] += hess_factor_[k] * hess_values_[k];
   return hessian_;
+}
+
+double ScaledEq5::cable_sum_row_floor(const Eigen::VectorXd& y) const {
+  if (!has_cable_sum_row()) return 0.0;
+  double magnitude = cable_row_.cwiseProduct(y.segment(nq_, m_)).cwiseAbs().sum() + std::abs(target_);
+  if (has_slack_) magnitude += std::abs(y[n_ - 1]);
+  return kSumRoundingUlps * std::numeric_limits<double>::epsilon() * magnitude;
 }
 
 void ScaledEq5::slacks(const Eigen::VectorXd& y, Eigen::VectorXd& d) const {

@@ -63,6 +63,13 @@ class ScaledEq5 {
 
   MinimalGeometryChangeNlp& nlp() { return nlp_; }
 
+  // The cable-sum row is c's last entry (index num_positions()) when there is one.
+  bool has_cable_sum_row() const { return mc_ > nq_; }
+  // That row's rounding floor at y: kSumRoundingUlps units in the last place
+  // of the sum of its terms' magnitudes (dimensionless, as c). It sums every
+  // cable force, so on large structures it is far above the node rows'.
+  double cable_sum_row_floor(const Eigen::VectorXd& y) const;
+
  private:
   MinimalGeometryChangeNlp& nlp_;
   int nq_ = 0, m_ = 0, n_ = 0, mc_ = 0;
@@ -71,6 +78,7 @@ class ScaledEq5 {
   double length_ = 1.0, force_ = 1.0, margin_ = 0.0, target_ = 0.0;
   Eigen::VectorXd scale_;  // D, on (q, sigma)
   Eigen::VectorXd signs_, margins_;
+  Eigen::VectorXd cable_row_;  // c, the cable-sum row's coefficients on the forces
   SparseMatrix jacobian_, hessian_;
   // Triplet k of the NLP's Jacobian / Hessian -> value index in the matrix,
   // and the factor that scales it.
