@@ -8,8 +8,8 @@
 
 #include "formulations/equilibrium.hpp"
 #include "formulations/force_scale.hpp"
-#include "kernels/stress_qp.hpp"
 #include "formulations/minimal_geometry_change_nlp.hpp"
+#include "kernels/stress_qp.hpp"
 #include "model/verify.hpp"
 #include "solvers/eq5_newton/interior_newton.hpp"
 #include "solvers/eq5_newton/scaled_eq5.hpp"
@@ -42,6 +42,11 @@ constexpr double kFartherObjective = 1e-6;
 // ... and by more than this (dimensionless |q - q0|^2 / L^2: a change of 1e-6
 // mean element lengths), for a start at the scene itself.
 constexpr double kFartherObjectiveFloor = 1e-12;
+
+// details.polish_start's values.
+constexpr const char* kFromEquilibrium = "equilibrium";
+constexpr const char* kFromLastIterate = "last_iterate";
+constexpr const char* kFromScene = "scene";
 
 std::string polish_name(Status s) {
   switch (s) {
@@ -181,7 +186,8 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   run.check = verify(part, run.positions, run.forces, options.tolerance);
   run.objective = problem.objective(run.outcome.y);
   // Never farther than the start: a point that is not closer to the scene
-  // than alternating-gn's equilibrium is not an answer.
+  // than alternating-gn's equilibrium is not an answer (where the start is
+  // no equilibrium, every verified point is).
   const double start_objective = problem.objective(problem.to_scaled(z0));
   const bool closer = !start_balances || run.objective < start_objective;
   if (stationary) {
@@ -193,8 +199,8 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   // the polish's tolerance, so only an optimum farther by more is a worse one.
   const bool clearly_farther =
       run.objective > (1.0 + kFartherObjective) * start_objective + kFartherObjectiveFloor;
-  run.farther_than_start =
-      start_balances && run.check.ok && clearly_farther && start_is_a_point_of_eq5(scale, newton.prestress_cap, start.forces);
+  run.farther_than_start = start_balances && run.check.ok && clearly_farther &&
+                           start_is_a_point_of_eq5(scale, newton.prestress_cap, start.forces);
   return run;
 }
 
@@ -264,7 +270,8 @@ void restart_from_projected_points(const Structure& part, const SolveOptions& op
     from.positions = run.positions;
     from.forces = run.forces;
     const Eq5NewtonDetails before = details;
-    PolishRun next = polish(part, options, run.settings, scale, run.row, from, true, recorder, closest);
+    constexpr bool kVerifiedStart = true;  // the kept run's projected point
+    PolishRun next = polish(part, options, run.settings, scale, run.row, from, kVerifiedStart, recorder, closest);
     add_counts(next.outcome, details);
     ++details.restarts;
     if (!next.kept()) {
@@ -279,10 +286,10 @@ void restart_from_projected_points(const Structure& part, const SolveOptions& op
 // Where the polish that gave the answer started, for its message.
 std::string polish_start_description(const Eq5NewtonDetails& details, const SolveResult& start) {
   const std::string iterations = std::to_string(details.start_iterations) + " iterations";
-  if (details.polish_start == "equilibrium") return "alternating-gn's equilibrium (" + iterations + ")";
+  if (details.polish_start == kFromEquilibrium) return "alternating-gn's equilibrium (" + iterations + ")";
   const std::string how = iterations + ", " + start.message;
   const std::string scene = "the scene's geometry with its stress QP's forces";
-  if (details.polish_start == "scene") return scene + " (" + how + ")";
+  if (details.polish_start == kFromScene) return scene + " (" + how + ")";
   return "alternating-gn's last iterate" + (details.scene_polish ? ", then " + scene : std::string()) + " (" + how +
          ")";
 }
@@ -316,7 +323,7 @@ bool polishes_without_equilibrium(const Eq5NewtonOptions& newton, const SolveRes
 SolveResult closest_iterate_result(const ClosestIterate& closest, const std::string& polish_stop,
                                    const std::string& polish_start, TraceRecorder& recorder,
                                    std::shared_ptr<Eq5NewtonDetails> details) {
-  const bool from_equilibrium = details->polish_start == "equilibrium";
+  const bool from_equilibrium = details->polish_start == kFromEquilibrium;
   std::string message = std::string(from_equilibrium ? "equilibrium closer to the scene than alternating-gn's"
                                                      : "equilibrium") +
                         ", not a local optimum of Eq. 5: the closest verified Newton iterate (the polish stopped: " +
@@ -470,7 +477,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     return run;
   };
   PolishRun run = polish_with_steady_retry(start, start_balances);
-  details->polish_start = start_balances ? "equilibrium" : "last_iterate";
+  details->polish_start = start_balances ? kFromEquilibrium : kFromLastIterate;
   // Without an equilibrium to start from, the scene's own geometry with its
   // stress QP's forces (ipopt's start) is the other one: on near-degenerate
   // scenes each of the two reaches optima the other does not.
@@ -482,7 +489,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     details->scene_polish = true;
     if (from_scene.kept()) {
       run = std::move(from_scene);
-      details->polish_start = "scene";
+      details->polish_start = kFromScene;
     }
   }
   restart_from_projected_points(part, options, scale, recorder, closest, *details, run);
@@ -516,11 +523,12 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   if (run.cap_slack)
     details->prestress_cap_slack = std::max(0.0, scale.prestress_cap - scale.normalisation_row.dot(run.forces));
   if (run.outcome.status == Status::Converged) record_multipliers(run, scale.reference_force, *details);
-  const char* answer = run.last_iterate_projected()
-                           ? (start_balances ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
-                                             : "equilibrium, not a local optimum")
-                       : run.projected ? "approximate local optimum"
-                                       : "local optimum";
+  const char* projected_answer = start_balances
+                                     ? "equilibrium closer to the scene than alternating-gn's, not a local optimum"
+                                     : "equilibrium, not a local optimum";
+  const char* answer = run.last_iterate_projected() ? projected_answer
+                       : run.projected              ? "approximate local optimum"
+                                                    : "local optimum";
   std::string message = std::string(answer) + " of Eq. 5" +
                         std::string(details->prestress_held ? " held at the prestress cap" : "") + ": " +
                         run.outcome.message + " after " + std::to_string(details->newton_iterations) +
