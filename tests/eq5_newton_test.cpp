@@ -362,6 +362,14 @@ TEST(Eq5Newton, UnderGravityFallsBackToTheHeldPolish) {
   EXPECT_LE(capped.stats.geometry_change, held_prism.stats.geometry_change * (1.0 + kSameChange));
 }
 
+// eq5-newton on a member of the tower family, to relative residual
+// `target` (without the driver's check).
+SolveResult eq5_newton_on_tower(const Structure& tower, double target) {
+  SolveOptions options;
+  options.tolerance = target;
+  return make_solver("eq5-newton")->Solve(tower, options, DriverControls{false});
+}
+
 // On the 80-layer member of the gravity tower family (4,640 elements, no
 // steady retry), solved to relative residual 1e-9, the prestress level
 // drifts towards the cap with full Newton steps, and each step's bilinear
@@ -377,9 +385,7 @@ TEST(Eq5Newton, StationaryStopEndsAtTheOptimumsGeometry) {
   constexpr double kStationaryKktError = 1e-5;  // interior_newton.cpp's bound at the stop
   constexpr double kTargetResidual = 1e-9;
   const Structure tower = testing::gravity_tower_at_equilibrium(kLayers);
-  SolveOptions options;
-  options.tolerance = kTargetResidual;
-  const SolveResult stationary = make_solver("eq5-newton")->Solve(tower, options, DriverControls{false});
+  const SolveResult stationary = eq5_newton_on_tower(tower, kTargetResidual);
   ASSERT_EQ(stationary.status, Status::Converged) << stationary.message;
   const Eq5NewtonDetails& d = newton_details(stationary);
   EXPECT_EQ(d.polish, "objective_stationary");
@@ -407,9 +413,7 @@ TEST(Eq5Newton, HoldsTheCableSumRowToItsRoundingFloor) {
   constexpr double kOptimumChange = 0.113117834;  // m, measured (the KKT answer either way)
   constexpr double kTargetResidual = 1e-9;
   const Structure tower = testing::gravity_tower_at_equilibrium(kLayers);
-  SolveOptions options;
-  options.tolerance = kTargetResidual;
-  const SolveResult r = make_solver("eq5-newton")->Solve(tower, options, DriverControls{false});
+  const SolveResult r = eq5_newton_on_tower(tower, kTargetResidual);
   ASSERT_EQ(r.status, Status::Converged) << r.message;
   const Eq5NewtonDetails& d = newton_details(r);
   EXPECT_EQ(d.polish, "kept");
