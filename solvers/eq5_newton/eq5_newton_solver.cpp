@@ -406,18 +406,17 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   details->start_geometry_change = start_check.geometry_change;
   const int start_records = static_cast<int>(start.trace.size());
   recorder.trace() = start.trace;
+  const bool start_balances = start.status == Status::Converged && start_check.ok;
   auto finish_with_start = [&](std::string why) {
     SolveResult r = std::move(start);
-    const bool balances = start_check.ok && r.status == Status::Converged;
-    r.message = std::string(balances ? "alternating-gn's equilibrium (" : "alternating-gn's result (") + r.message +
-                "); " + why;
+    r.message = std::string(start_balances ? "alternating-gn's equilibrium (" : "alternating-gn's result (") +
+                r.message + "); " + why;
     r.trace = std::move(recorder.trace());
     r.stats.iterations = static_cast<int>(r.trace.size()) - 1;
     r.stats.seconds = recorder.seconds();
     r.details = {details};
     return r;
   };
-  const bool start_balances = start.status == Status::Converged && start_check.ok;
   if (!start_balances && !polishes_without_equilibrium(newton, start, options, recorder.seconds()))
     return finish_with_start("no Newton polish");
 

@@ -41,7 +41,7 @@ ScaledEq5::ScaledEq5(MinimalGeometryChangeNlp& nlp) : nlp_(nlp) {
   mc_ = nlp.num_constraints();
   Eigen::VectorXd row_lower, row_upper;
   nlp.constraint_bounds(row_lower, row_upper);
-  has_slack_ = mc_ > nq_ && !std::isfinite(row_lower[nq_]) && std::isfinite(row_upper[nq_]);
+  has_slack_ = has_cable_sum_row() && !std::isfinite(row_lower[nq_]) && std::isfinite(row_upper[nq_]);
   const int nz = nlp.num_variables();
   n_ = nz + (has_slack_ ? 1 : 0);
   length_ = nlp.length_scale();
@@ -59,7 +59,6 @@ ScaledEq5::ScaledEq5(MinimalGeometryChangeNlp& nlp) : nlp_(nlp) {
     signs_[e] = std::isfinite(fs.lower[e]) ? 1.0 : -1.0;
     margins_[e] = margin_;
   }
-  if (has_cable_sum_row()) cable_row_ = fs.normalisation_row;
 
   std::vector<int> rows, cols;
   nlp.jacobian_structure(rows, cols);
@@ -110,7 +109,7 @@ void ScaledEq5::constraints(const Eigen::VectorXd& y, Eigen::VectorXd& c) {
   z_ = to_si(y);
   nlp_.constraints(z_, c_z_);
   c = c_z_ / force_;
-  if (mc_ > nq_) c[nq_] -= target_;
+  if (has_cable_sum_row()) c[nq_] -= target_;
   if (has_slack_) c[nq_] += y[n_ - 1];
 }
 
@@ -136,7 +135,8 @@ const ScaledEq5::SparseMatrix& ScaledEq5::hessian(const Eigen::VectorXd& y, cons
 
 double ScaledEq5::cable_sum_row_floor(const Eigen::VectorXd& y) const {
   if (!has_cable_sum_row()) return 0.0;
-  double magnitude = cable_row_.cwiseProduct(y.segment(nq_, m_)).cwiseAbs().sum() + std::abs(target_);
+  const Eigen::VectorXd& cable_row = nlp_.force_scale().normalisation_row;
+  double magnitude = cable_row.cwiseProduct(y.segment(nq_, m_)).cwiseAbs().sum() + std::abs(target_);
   if (has_slack_) magnitude += std::abs(y[n_ - 1]);
   return kSumRoundingUlps * std::numeric_limits<double>::epsilon() * magnitude;
 }

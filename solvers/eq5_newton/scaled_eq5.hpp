@@ -78,7 +78,6 @@ class ScaledEq5 {
   double length_ = 1.0, force_ = 1.0, margin_ = 0.0, target_ = 0.0;
   Eigen::VectorXd scale_;  // D, on (q, sigma)
   Eigen::VectorXd signs_, margins_;
-  Eigen::VectorXd cable_row_;  // c, the cable-sum row's coefficients on the forces
   SparseMatrix jacobian_, hessian_;
   // Triplet k of the NLP's Jacobian / Hessian -> value index in the matrix,
   // and the factor that scales it.
