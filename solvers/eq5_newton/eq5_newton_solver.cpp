@@ -160,6 +160,7 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   settings.initial_barrier = newton.initial_barrier;
   settings.proximal_weight = newton.proximal_weight;
   settings.predictor_corrector = newton.predictor_corrector;
+  settings.progress_filter = newton.progress_filter == ProgressFilter::On;
   settings.stationary_stop = newton.stationary_stop;
   settings.time_limit_s = std::max(0.0, options.time_limit_s - recorder.seconds());
 
@@ -203,6 +204,10 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
                            start_is_a_point_of_eq5(scale, newton.prestress_cap, start.forces);
   return run;
 }
+
+// A kept polish that ended at a local optimum or at the stationary stop's
+// approximate one, not at a projected last iterate.
+bool reached_optimum(const PolishRun& run) { return run.kept() && !run.last_iterate_projected(); }
 
 bool came_close(const InteriorNewtonOutcome& outcome) {
   return std::max({outcome.dual_infeasibility, outcome.constraint_violation, outcome.complementarity}) <
@@ -349,6 +354,10 @@ Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
   o.stationary_stop = reader.choice("stationary_stop", "on", {"on", "off"}) == "on";
   o.restarts = reader.integer("restarts", o.restarts, 0, kLargestRestarts);
   o.fallback_starts = reader.choice("fallback_starts", "on", {"on", "off"}) == "on";
+  const std::string progress = reader.choice("progress_filter", "retry", {"retry", "on", "off"});
+  o.progress_filter = progress == "on"    ? ProgressFilter::On
+                      : progress == "off" ? ProgressFilter::Off
+                                          : ProgressFilter::Retry;
   reader.reject_unknown();
   return o;
 }
@@ -385,6 +394,7 @@ nlohmann::json Eq5NewtonDetails::to_json() const {
   if (restarts > 0) j["restarts"] = restarts;
   if (!polish_start.empty()) j["polish_start"] = polish_start;
   if (scene_polish) j["scene_polish"] = true;
+  if (progress_retry) j["progress_retry"] = true;
   return j;
 }
 
@@ -455,12 +465,12 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // A held polish that ended stationary is only a fallback's answer (the
   // capped optimum can lie much closer): the retry runs then too, and the
   // closer of the two answers is kept.
-  auto polish_with_steady_retry = [&](const SolveResult& from, bool balances) {
-    PolishRun run = polish_sequence(newton, from, balances);
+  auto polish_with_steady_retry = [&](const Eq5NewtonOptions& settings, const SolveResult& from, bool balances) {
+    PolishRun run = polish_sequence(settings, from, balances);
     const bool stationary_fallback = run.projected && (details->prestress_held || run.last_iterate_projected());
-    if ((!run.kept() || stationary_fallback) && newton.proximal_weight < kSteadyProximalWeight &&
+    if ((!run.kept() || stationary_fallback) && settings.proximal_weight < kSteadyProximalWeight &&
         part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
-      Eq5NewtonOptions steady = newton;
+      Eq5NewtonOptions steady = settings;
       steady.proximal_weight = kSteadyProximalWeight;
       const Eq5NewtonDetails before = *details;
       PolishRun retry = polish_sequence(steady, from, balances);
@@ -475,20 +485,44 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     }
     return run;
   };
-  PolishRun run = polish_with_steady_retry(start, start_balances);
-  details->polish_start = start_balances ? kFromEquilibrium : kFromLastIterate;
   // Without an equilibrium to start from, the scene's own geometry with its
   // stress QP's forces (ipopt's start) is the other one: on near-degenerate
   // scenes each of the two reaches optima the other does not.
-  if (!start_balances && !run.kept() && recorder.seconds() < options.time_limit_s) {
-    SolveResult scene_start;
-    scene_start.positions = part.positions;
-    scene_start.forces = scene_forces(part, scale, start.forces);
-    PolishRun from_scene = polish_with_steady_retry(scene_start, false);
-    details->scene_polish = true;
-    if (from_scene.kept()) {
-      run = std::move(from_scene);
-      details->polish_start = kFromScene;
+  auto polish_from_starts = [&](const Eq5NewtonOptions& settings) {
+    PolishRun run = polish_with_steady_retry(settings, start, start_balances);
+    details->polish_start = start_balances ? kFromEquilibrium : kFromLastIterate;
+    if (!start_balances && !run.kept() && recorder.seconds() < options.time_limit_s) {
+      SolveResult scene_start;
+      scene_start.positions = part.positions;
+      scene_start.forces = scene_forces(part, scale, start.forces);
+      PolishRun from_scene = polish_with_steady_retry(settings, scene_start, false);
+      details->scene_polish = true;
+      if (from_scene.kept()) {
+        run = std::move(from_scene);
+        details->polish_start = kFromScene;
+      }
+    }
+    return run;
+  };
+  PolishRun run = polish_from_starts(newton);
+  // Where no polish reached a (approximate) local optimum, the same
+  // polishes once more with the progress filter (interior_newton.hpp): on
+  // near-degenerate scenes the two rules reach optima the other does not.
+  if (newton.progress_filter == ProgressFilter::Retry && !reached_optimum(run) &&
+      part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
+    Eq5NewtonOptions guarded = newton;
+    guarded.progress_filter = ProgressFilter::On;
+    const Eq5NewtonDetails before = *details;
+    PolishRun retry = polish_from_starts(guarded);
+    details->progress_retry = true;
+    const bool better = reached_optimum(retry) ||
+                        (retry.kept() && (!run.kept() || retry.check.geometry_change < run.check.geometry_change));
+    if (better) {
+      run = std::move(retry);
+    } else {
+      details->polish_start = before.polish_start;
+      details->prestress_held = before.prestress_held;
+      keep_residuals(before, *details);
     }
   }
   restart_from_projected_points(part, options, scale, recorder, closest, *details, run);
@@ -502,7 +536,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // verified projection after the stationary stop, a stall or the budget,
   // closer than the start. Where it is not a local optimum, the closest
   // verified iterate of any polish is the answer when it is closer still.
-  const bool optimum = run.kept() && !run.last_iterate_projected();
+  const bool optimum = reached_optimum(run);
   const double to_beat = run.kept()         ? run.check.geometry_change
                          : start_balances ? start_check.geometry_change
                                           : std::numeric_limits<double>::infinity();

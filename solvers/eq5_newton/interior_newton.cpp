@@ -39,6 +39,13 @@ constexpr double kSwitchingInfeasibilityExponent = 1.1;
 constexpr double kLargestInfeasibility = 1e4;
 constexpr double kSmallInfeasibility = 1e-4;
 constexpr int kMaxBacktracks = 40;
+// Progress filter (Ipopt's adaptive mu globalization, obj-constr-filter): a
+// point makes progress when, against every earlier point of Mehrotra's rule,
+// it is lower in |c|_1 or in phi by this margin times min(1, |c|_1); where it
+// does not, the monotone rule starts from this share of the mean
+// complementarity (Ipopt's adaptive_mu_monotone_init_factor).
+constexpr double kProgressMargin = 1e-5;
+constexpr double kMonotoneStartShare = 0.8;
 constexpr double kSmallestStep = 1e-14;
 // delta_c on the multipliers' diagonal (quasi-definite matrix).
 constexpr double kDualRegularisation = 1e-10;
@@ -315,6 +322,8 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   const double theta_min = kSmallInfeasibility * std::max(1.0, here.infeasibility);
   std::vector<std::pair<double, double>> filter;  // (theta, phi_mu) pairs a trial must not be dominated by
   double filter_mu = mu;
+  bool free_mode = settings.predictor_corrector;
+  std::vector<std::pair<double, double>> progress_filter;
   // phi and the KKT error at every point reached, for the stationary stop.
   std::vector<double> objective_history, kkt_history;
   objective_history.reserve(static_cast<std::size_t>(std::max(0, settings.max_iterations)) + 1);
@@ -354,13 +363,35 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       out.message = "KKT conditions of Eq. 5 met";
       return out;
     }
+    auto makes_progress = [&] {
+      const double margin = kProgressMargin * std::min(1.0, here.infeasibility);
+      for (const auto& [theta_f, phi_f] : progress_filter)
+        if (!(here.infeasibility + margin < theta_f || here.objective + margin < phi_f)) return false;
+      return true;
+    };
+    auto remember_progress = [&] { progress_filter.emplace_back(here.infeasibility, here.objective); };
     auto barrier_error = [&] {
       const double comp = (here.d.cwiseProduct(v).array() - mu).abs().maxCoeff();
       return std::max({out.dual_infeasibility, out.constraint_violation, comp});
     };
-    if (!settings.predictor_corrector) {
-      while (mu > mu_min && barrier_error() <= kBarrierTolerance * mu)
-        mu = std::max(mu_min, std::min(kBarrierDecrease * mu, std::pow(mu, kBarrierExponent)));
+    // Mehrotra's rule while every point makes progress against the
+    // progress filter; otherwise the monotone rule until a barrier problem
+    // is solved at a point that does.
+    if (free_mode && settings.progress_filter && !makes_progress()) {
+      free_mode = false;
+      mu = std::max(mu_min, kMonotoneStartShare * here.d.dot(v) / std::max(1, m));
+    } else if (free_mode && settings.progress_filter) {
+      remember_progress();
+    }
+    if (!free_mode) {
+      const bool solved = barrier_error() <= kBarrierTolerance * mu;
+      if (settings.predictor_corrector && solved && makes_progress()) {
+        free_mode = true;
+        remember_progress();
+      } else {
+        while (mu > mu_min && barrier_error() <= kBarrierTolerance * mu)
+          mu = std::max(mu_min, std::min(kBarrierDecrease * mu, std::pow(mu, kBarrierExponent)));
+      }
     }
     const double kkt_error = std::max({out.dual_infeasibility, out.constraint_violation, out.complementarity});
     kkt_history.push_back(kkt_error);
@@ -429,7 +460,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     // Mehrotra's predictor: the affine step (mu = 0) sets mu from the
     // complementarity it would reach, and its second-order term corrects.
     corrector.setZero(m);
-    if (settings.predictor_corrector && m > 0) {
+    if (free_mode && m > 0) {
       rhs.head(n) = -g;
       rhs.tail(mc) = -here.c;
       kkt.solve(rhs, solution);

@@ -67,6 +67,14 @@ struct InteriorNewtonSettings {
   // mu from Mehrotra's predictor every iteration (with its second-order
   // correction) instead of the monotone rule.
   bool predictor_corrector = false;
+  // With predictor_corrector: Mehrotra's rule only while each point is lower,
+  // in |c|_1 or in phi, than every earlier point of that rule (a filter that
+  // does not forget when mu changes); otherwise Ipopt's monotone rule from
+  // 0.8 times the mean complementarity until a barrier problem is solved at a
+  // point that is (Ipopt's adaptive mu globalization). Without it a polish
+  // can trade |c|_1 for phi and back for hundreds of iterations, since the
+  // line search's filter is cleared whenever mu changes.
+  bool progress_filter = false;
   bool stationary_stop = true;  // the stationary stop above
   double time_limit_s = std::numeric_limits<double>::infinity();
 };
