@@ -662,24 +662,24 @@ TEST(Eq5Newton, PolishRestartsFromTheProjectedPoint) {
   EXPECT_TRUE(verify(octahedron, restarted.positions, restarted.forces, SolveOptions{}.tolerance).ok);
 }
 
-// Where no polish reaches a local optimum, the polishes run once more with
-// Mehrotra's rule held to progress against the (|c|_1, phi) points before
-// (interior_newton.hpp): on the stress test's octahedron with one node 1e-4
-// lengths from another the polishes stall, and without the retry a restart
-// from a projected point ends at the stationary stop's approximate optimum;
-// the retry meets the KKT test there. On prism-4 with an element 1e-6 rad
-// from parallel to another, where alternating-gn and the polishes without it
-// find no equilibrium at all (1.317 m, not verified), it reaches a local
+// Where no polish (nor restart) reaches a local optimum, the polishes run
+// once more with Mehrotra's rule held to progress against the (|c|_1, phi)
+// points before (interior_newton.hpp). On prism-4 with an element 1e-6 rad
+// from parallel to another, where alternating-gn and the polishes without
+// it find no equilibrium at all (1.317 m, not verified), it reaches a local
 // optimum 0.960 m from the scene (Ipopt from the scene: another, 1.246 m).
+// On the stress test's 80/500 gravity tower with gravity along +z the
+// polishes without it stall and the answer is a projected last iterate,
+// 2.449 m from the scene; the retry meets the KKT test 1.400 m away.
 TEST(Eq5Newton, ProgressFilterRetryReachesOptimaWhereThePolishesStall) {
-  constexpr int kOneTenThousandth = 1;
   constexpr int kOneMillionthRad = 2;
+  constexpr int kGravityAlongPlusZ = 4;
   struct Case {
     Structure scene;
     double optimum_change;  // m, measured
   };
-  for (const Case& c : {Case{stress_case("octahedron", "near-coincident", kOneTenThousandth), 0.199477805},
-                        Case{stress_case("prism-4", "near-parallel", kOneMillionthRad), 0.959935}}) {
+  for (const Case& c : {Case{stress_case("prism-4", "near-parallel", kOneMillionthRad), 0.959934917},
+                        Case{stress_case("tower-80s-500c-gravity", "gravity-direction", kGravityAlongPlusZ), 1.39952}}) {
     SCOPED_TRACE(c.scene.name);
     SolveOptions without;
     without.backend_options = {{"progress_filter", "off"}};
@@ -697,9 +697,9 @@ TEST(Eq5Newton, ProgressFilterRetryReachesOptimaWhereThePolishesStall) {
     EXPECT_LE(std::max({d.dual_infeasibility, d.complementarity}), Eq5NewtonOptions{}.optimality_tolerance);
     const Verification v = verify(c.scene, r.positions, r.forces, SolveOptions{}.tolerance);
     EXPECT_TRUE(v.ok) << v.relative_residual;
-    EXPECT_NEAR(v.geometry_change, c.optimum_change, 1e-6 * c.optimum_change);
+    EXPECT_NEAR(v.geometry_change, c.optimum_change, 1e-5 * c.optimum_change);
     EXPECT_NE(newton_details(before).polish, "kept");
-    EXPECT_LE(r.stats.geometry_change, before.stats.geometry_change * (1.0 + 1e-9));
+    EXPECT_LT(r.stats.geometry_change, 0.8 * before.stats.geometry_change);
   }
 }
 

@@ -487,7 +487,8 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   };
   // Without an equilibrium to start from, the scene's own geometry with its
   // stress QP's forces (ipopt's start) is the other one: on near-degenerate
-  // scenes each of the two reaches optima the other does not.
+  // scenes each of the two reaches optima the other does not. Then the
+  // restarts from a projected answer.
   auto polish_from_starts = [&](const Eq5NewtonOptions& settings) {
     PolishRun run = polish_with_steady_retry(settings, start, start_balances);
     details->polish_start = start_balances ? kFromEquilibrium : kFromLastIterate;
@@ -502,12 +503,13 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
         details->polish_start = kFromScene;
       }
     }
+    restart_from_projected_points(part, options, scale, recorder, closest, *details, run);
     return run;
   };
   PolishRun run = polish_from_starts(newton);
-  // Where no polish reached a (approximate) local optimum, the same
-  // polishes once more with the progress filter (interior_newton.hpp): on
-  // near-degenerate scenes the two rules reach optima the other does not.
+  // Where no polish (nor restart) reached a (approximate) local optimum, the
+  // same polishes once more with the progress filter (interior_newton.hpp):
+  // on near-degenerate scenes the two rules reach optima the other does not.
   if (newton.progress_filter == ProgressFilter::Retry && !reached_optimum(run) &&
       part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
     Eq5NewtonOptions guarded = newton;
@@ -525,7 +527,6 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
       keep_residuals(before, *details);
     }
   }
-  restart_from_projected_points(part, options, scale, recorder, closest, *details, run);
   details->polish = run.verified_rejected          ? "rejected_by_verification"
                     : run.farther_than_start       ? "farther_than_start"
                     : run.last_iterate_projected() ? polish_name(run.outcome.status) + "_projected"
