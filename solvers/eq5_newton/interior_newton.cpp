@@ -39,6 +39,7 @@ constexpr double kSwitchingInfeasibilityExponent = 1.1;
 constexpr double kLargestInfeasibility = 1e4;
 constexpr double kSmallInfeasibility = 1e-4;
 constexpr int kMaxBacktracks = 40;
+constexpr double kSmallestStep = 1e-14;
 // Progress filter (Ipopt's adaptive mu globalization, obj-constr-filter): a
 // point makes progress when, against every earlier point of Mehrotra's rule,
 // it is lower in |c|_1 or in phi by this margin times min(1, |c|_1); where it
@@ -46,7 +47,6 @@ constexpr int kMaxBacktracks = 40;
 // complementarity (Ipopt's adaptive_mu_monotone_init_factor).
 constexpr double kProgressMargin = 1e-5;
 constexpr double kMonotoneStartShare = 0.8;
-constexpr double kSmallestStep = 1e-14;
 // delta_c on the multipliers' diagonal (quasi-definite matrix).
 constexpr double kDualRegularisation = 1e-10;
 // Inertia correction (Ipopt's rule): the first delta_w, its growth on the first
@@ -323,11 +323,12 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
   std::vector<std::pair<double, double>> filter;  // (theta, phi_mu) pairs a trial must not be dominated by
   double filter_mu = mu;
   bool free_mode = settings.predictor_corrector;
-  std::vector<std::pair<double, double>> progress_filter;
+  std::vector<std::pair<double, double>> progress_filter;  // (theta, phi) of earlier points of Mehrotra's rule
   // phi and the KKT error at every point reached, for the stationary stop.
   std::vector<double> objective_history, kkt_history;
   objective_history.reserve(static_cast<std::size_t>(std::max(0, settings.max_iterations)) + 1);
   kkt_history.reserve(objective_history.capacity());
+  if (settings.progress_filter) progress_filter.reserve(objective_history.capacity());
   objective_history.push_back(here.objective);
   out.y = y;
   out.lambda = lambda;
