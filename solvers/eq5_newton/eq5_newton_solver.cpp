@@ -160,7 +160,8 @@ PolishRun polish(const Structure& part, const SolveOptions& options, const Eq5Ne
   settings.initial_barrier = newton.initial_barrier;
   settings.proximal_weight = newton.proximal_weight;
   settings.predictor_corrector = newton.predictor_corrector;
-  settings.progress_filter = newton.progress_filter == ProgressFilter::On;
+  settings.progress_filter = newton.progress_filter == Safeguard::On;
+  settings.regularised_steps = newton.regularised_steps == Safeguard::On;
   settings.stationary_stop = newton.stationary_stop;
   settings.time_limit_s = std::max(0.0, options.time_limit_s - recorder.seconds());
 
@@ -339,6 +340,11 @@ SolveResult closest_iterate_result(const ClosestIterate& closest, const std::str
                          std::move(details));
 }
 
+Safeguard read_safeguard(OptionReader& reader, const char* key) {
+  const std::string value = reader.choice(key, "retry", {"retry", "on", "off"});
+  return value == "on" ? Safeguard::On : value == "off" ? Safeguard::Off : Safeguard::Retry;
+}
+
 }  // namespace
 
 Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
@@ -354,10 +360,8 @@ Eq5NewtonOptions Eq5NewtonOptions::FromPairs(const OptionPairs& pairs) {
   o.stationary_stop = reader.choice("stationary_stop", "on", {"on", "off"}) == "on";
   o.restarts = reader.integer("restarts", o.restarts, 0, kLargestRestarts);
   o.fallback_starts = reader.choice("fallback_starts", "on", {"on", "off"}) == "on";
-  const std::string progress = reader.choice("progress_filter", "retry", {"retry", "on", "off"});
-  o.progress_filter = progress == "on"    ? ProgressFilter::On
-                      : progress == "off" ? ProgressFilter::Off
-                                          : ProgressFilter::Retry;
+  o.regularised_steps = read_safeguard(reader, "regularised_steps");
+  o.progress_filter = read_safeguard(reader, "progress_filter");
   reader.reject_unknown();
   return o;
 }
@@ -394,6 +398,7 @@ nlohmann::json Eq5NewtonDetails::to_json() const {
   if (restarts > 0) j["restarts"] = restarts;
   if (!polish_start.empty()) j["polish_start"] = polish_start;
   if (scene_polish) j["scene_polish"] = true;
+  if (regularised_retry) j["regularised_retry"] = true;
   if (progress_retry) j["progress_retry"] = true;
   return j;
 }
@@ -508,15 +513,17 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   };
   PolishRun run = polish_from_starts(newton);
   // Where no polish (nor restart) reached a (approximate) local optimum, the
-  // same polishes once more with the progress filter (interior_newton.hpp):
-  // on near-degenerate scenes the two rules reach optima the other does not.
-  if (newton.progress_filter == ProgressFilter::Retry && !reached_optimum(run) &&
-      part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
+  // same polishes once more with a safeguard (interior_newton.hpp): on
+  // near-degenerate scenes they reach optima the plain polishes do not.
+  auto retry_with = [&](Safeguard Eq5NewtonOptions::*safeguard, bool& ran) {
+    if (newton.*safeguard != Safeguard::Retry || reached_optimum(run) ||
+        part.num_elements() >= kSteadyRetryElements || recorder.seconds() >= options.time_limit_s)
+      return;
     Eq5NewtonOptions guarded = newton;
-    guarded.progress_filter = ProgressFilter::On;
+    guarded.*safeguard = Safeguard::On;
     const Eq5NewtonDetails before = *details;
     PolishRun retry = polish_from_starts(guarded);
-    details->progress_retry = true;
+    ran = true;
     const bool better = reached_optimum(retry) ||
                         (retry.kept() && (!run.kept() || retry.check.geometry_change < run.check.geometry_change));
     if (better) {
@@ -526,7 +533,9 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
       details->prestress_held = before.prestress_held;
       keep_residuals(before, *details);
     }
-  }
+  };
+  retry_with(&Eq5NewtonOptions::regularised_steps, details->regularised_retry);
+  retry_with(&Eq5NewtonOptions::progress_filter, details->progress_retry);
   details->polish = run.verified_rejected          ? "rejected_by_verification"
                     : run.farther_than_start       ? "farther_than_start"
                     : run.last_iterate_projected() ? polish_name(run.outcome.status) + "_projected"

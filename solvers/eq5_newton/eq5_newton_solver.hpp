@@ -50,11 +50,15 @@
 // stationary_stop (on | off: the stationary stop above, default on),
 // restarts (0 .. 100, default 5: the fresh polishes of step 4, each with
 // its own newton_iterations), fallback_starts (on | off: the polishes of
-// step 1 without alternating-gn's equilibrium, default on), progress_filter
-// (retry | on | off: Mehrotra's rule falls back to the monotone one where a
-// point makes no progress, interior_newton.hpp; `retry`, the default, runs
-// the polishes of steps 1-2 again with it on parts below 4000 elements
-// where they reached no (approximate) local optimum, and keeps the better).
+// step 1 without alternating-gn's equilibrium, default on),
+// regularised_steps (retry | on | off: the steps keep the KKT matrix's
+// delta_c instead of refining it away) and progress_filter (retry | on |
+// off: Mehrotra's rule falls back to the monotone one where a point makes
+// no progress), interior_newton.hpp. With `retry`, the default of both, the
+// polishes of steps 1, 2 and 4 run again with the safeguard on parts below
+// 4000 elements where they reached no (approximate) local optimum, first
+// with regularised steps, then with the progress filter, and the better
+// answer is kept.
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -64,9 +68,9 @@
 
 namespace tensegrity {
 
-// Mehrotra's rule with the progress filter of interior_newton.hpp: never,
-// in a second run of the polishes where the first reached no optimum, or always.
-enum class ProgressFilter { Off, Retry, On };
+// A safeguard of the polish (interior_newton.hpp): never, in a further run
+// of the polishes where those before reached no optimum, or in every polish.
+enum class Safeguard { Off, Retry, On };
 
 struct Eq5NewtonOptions {
   int newton_iterations = 1000;
@@ -78,7 +82,8 @@ struct Eq5NewtonOptions {
   bool stationary_stop = true;
   int restarts = 5;
   bool fallback_starts = true;
-  ProgressFilter progress_filter = ProgressFilter::Retry;
+  Safeguard regularised_steps = Safeguard::Retry;
+  Safeguard progress_filter = Safeguard::Retry;
 
   static Eq5NewtonOptions FromPairs(const OptionPairs& pairs);
   bool IsValid(std::string* why = nullptr) const;
@@ -126,8 +131,10 @@ struct Eq5NewtonDetails : SolverDetails {
   // The polish from the scene's geometry ran (its counts are in the sums above).
   bool scene_polish = false;
   // No polish reached a (approximate) local optimum, and the polishes ran
-  // again with the progress filter (progress_filter=retry; the counts above
-  // sum both); polish_start is then that of the run whose answer stays.
+  // again with regularised steps (regularised_retry), then also with the
+  // progress filter (progress_retry); the counts above sum every run, and
+  // polish_start is that of the run whose answer stays.
+  bool regularised_retry = false;
   bool progress_retry = false;
   nlohmann::json to_json() const override;
 };

@@ -132,11 +132,14 @@ KktGroups structured_kkt_groups(const Eigen::SparseMatrix<double>& jacobian, int
 // elimination order analysed once, values rewritten every factorization.
 class KktSystem {
  public:
+  // `refine`: iterative refinement against the matrix without delta_c
+  // after each solve; without it the solutions keep delta_c.
   KktSystem(const Eigen::SparseMatrix<double>& hessian_pattern, const Eigen::SparseMatrix<double>& jacobian_pattern,
-            int num_positions)
+            int num_positions, bool refine)
       : n_(static_cast<int>(hessian_pattern.rows())),
         mc_(static_cast<int>(jacobian_pattern.rows())),
-        nq_(num_positions) {
+        nq_(num_positions),
+        refine_(refine) {
     std::vector<int> rows, cols;
     for (int j = 0; j < hessian_pattern.outerSize(); ++j)
       for (Eigen::SparseMatrix<double>::InnerIterator it(hessian_pattern, j); it; ++it)
@@ -174,9 +177,10 @@ class KktSystem {
   }
 
   // Solves [W, J^T; J, 0] x = b with the factorization of the delta_c matrix
-  // and iterative refinement.
+  // and iterative refinement (without it, [W, J^T; J, -delta_c I] x = b).
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     ldlt_.solve(b, x);
+    if (!refine_) return;
     const double scale = std::max(1.0, b.cwiseAbs().maxCoeff());
     double last_norm = std::numeric_limits<double>::infinity();
     for (int step = 0; step < kRefinementSteps; ++step) {
@@ -192,6 +196,7 @@ class KktSystem {
 
  private:
   int n_, mc_, nq_;
+  bool refine_;
   Eigen::SparseMatrix<double> matrix_;
   std::vector<int> hessian_slot_, jacobian_slot_, diagonal_slot_;
   NodeBlockLdlt ldlt_;  // the symbolic work done once
@@ -314,7 +319,7 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
       ds_affine(m), dv_affine(m);  // sized once: the loop assigns into them
   problem.gradient(y, g);
   const Eigen::SparseMatrix<double>* J = &problem.jacobian(y);
-  KktSystem kkt(problem.hessian(y, lambda), *J, nq);
+  KktSystem kkt(problem.hessian(y, lambda), *J, nq, !settings.regularised_steps);
   double last_shift = 0.0;      // the last shift an inertia correction found
   double previous_shift = 0.0;  // the shift of the previous iteration's step
   int shifted_steps = 0;        // consecutive steps taken with a shift

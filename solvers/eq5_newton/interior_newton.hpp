@@ -19,7 +19,8 @@
 // residual, so it changes the path, not the solution. delta_c keeps the
 // matrix quasi-definite so that a sparse LDL^T without pivoting (Eigen's
 // SimplicialLDLT, an elimination order from the structure analysed once) is
-// stable; iterative refinement removes it from the solution. The signs of D
+// stable; iterative refinement removes it from the solution (unless
+// regularised_steps keeps it). The signs of D
 // give the inertia: when it is not (n, mc), delta_w grows (as in Ipopt) until
 // it is, so that the step minimises a model that is convex on the
 // constraints' tangent space. Ipopt tries delta_w = 0 first at every
@@ -75,6 +76,14 @@ struct InteriorNewtonSettings {
   // can trade |c|_1 for phi and back for hundreds of iterations, since the
   // line search's filter is cleared whenever mu changes.
   bool progress_filter = false;
+  // Each step solves the KKT system with delta_c on the multipliers' block
+  // left in, as Ipopt's steps keep its Jacobian regularisation, instead of
+  // refining it away. Where the constraint Jacobian is nearly rank-deficient
+  // (nearly coincident nodes, nearly parallel elements) the refined steps
+  // carry multipliers of 1e4-1e9 and the line search stalls; the regularised
+  // ones stay bounded. On the large towers the refined steps are needed to
+  // meet the KKT test at all.
+  bool regularised_steps = false;
   bool stationary_stop = true;  // the stationary stop above
   double time_limit_s = std::numeric_limits<double>::infinity();
 };
