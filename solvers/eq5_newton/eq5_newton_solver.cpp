@@ -26,10 +26,10 @@ constexpr int kLargestNewtonIterations = 100000;
 constexpr double kCameCloseKktError = 1e-6;
 // The proximal weight of the retry when a polish with a smaller one is not kept.
 constexpr double kSteadyProximalWeight = 1e-8;
-// Parts from this many elements get no such retry: on the gravity tower family
-// from 4,640 elements the polish is kept with neither weight, after tens of
-// seconds each.
-constexpr int kSteadyRetryElements = 4000;
+// Parts from this many elements get no such retry, nor the retries with a
+// safeguard: on the gravity tower family from 4,640 elements the polish is
+// kept with neither weight, after tens of seconds each.
+constexpr int kRetryElements = 4000;
 // A polish that stalls or spends its budget far from its optimum ends at its
 // projected last iterate; a fresh polish from there (new barrier, multipliers
 // and filter) often gets much closer. Each only after one that gained at
@@ -474,7 +474,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
     PolishRun run = polish_sequence(settings, from, balances);
     const bool stationary_fallback = run.projected && (details->prestress_held || run.last_iterate_projected());
     if ((!run.kept() || stationary_fallback) && settings.proximal_weight < kSteadyProximalWeight &&
-        part.num_elements() < kSteadyRetryElements && recorder.seconds() < options.time_limit_s) {
+        part.num_elements() < kRetryElements && recorder.seconds() < options.time_limit_s) {
       Eq5NewtonOptions steady = settings;
       steady.proximal_weight = kSteadyProximalWeight;
       const Eq5NewtonDetails before = *details;
@@ -517,7 +517,7 @@ SolveResult Eq5NewtonSolver::DoSolve(const PartProblem& part_problem, const Eq5N
   // near-degenerate scenes they reach optima the plain polishes do not.
   auto retry_with = [&](Safeguard Eq5NewtonOptions::*safeguard, bool& ran) {
     if (newton.*safeguard != Safeguard::Retry || reached_optimum(run) ||
-        part.num_elements() >= kSteadyRetryElements || recorder.seconds() >= options.time_limit_s)
+        part.num_elements() >= kRetryElements || recorder.seconds() >= options.time_limit_s)
       return;
     Eq5NewtonOptions guarded = newton;
     guarded.*safeguard = Safeguard::On;
