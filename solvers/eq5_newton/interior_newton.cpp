@@ -383,11 +383,13 @@ InteriorNewtonOutcome solve_interior_newton(ScaledEq5& problem, const Eigen::Vec
     // Mehrotra's rule while every point makes progress against the
     // progress filter; otherwise the monotone rule until a barrier problem
     // is solved at a point that does.
-    if (free_mode && settings.progress_filter && !makes_progress()) {
-      free_mode = false;
-      mu = std::max(mu_min, kMonotoneStartShare * here.d.dot(v) / std::max(1, m));
-    } else if (free_mode && settings.progress_filter) {
-      remember_progress();
+    if (free_mode && settings.progress_filter) {
+      if (makes_progress()) {
+        remember_progress();
+      } else {
+        free_mode = false;
+        mu = std::max(mu_min, kMonotoneStartShare * here.d.dot(v) / std::max(1, m));
+      }
     }
     if (!free_mode) {
       const bool solved = barrier_error() <= kBarrierTolerance * mu;
