@@ -334,9 +334,9 @@ stress_noise() {
 # --- 4. stress test: every family -----------------------------------------------------
 stress_families() {
   step "stress test: every family on the reference scenes"
-  local cmd="$tg stress-test --scenes reference --trials 1 --jobs 2 --time-limit 5 --solvers alternating-gn,ipopt --quiet --out stress-all-families.json"
+  local cmd="$tg stress-test --scenes reference --trials 1 --jobs 2 --time-limit 5 --solvers alternating-gn,eq5-newton,ipopt --quiet --out stress-all-families.json"
   header "$out/stress-families.md" "Stress test: every family on the reference scenes" "$cmd"
-  "$tg" stress-test --scenes reference --trials 1 --jobs 2 --time-limit 5 --solvers alternating-gn,ipopt \
+  "$tg" stress-test --scenes reference --trials 1 --jobs 2 --time-limit 5 --solvers alternating-gn,eq5-newton,ipopt \
     --quiet --out "$out/stress-all-families.json"
   stamp "$out/stress-all-families.json" "$cmd"
   stress_table "$out/stress-all-families.json" >>"$out/stress-families.md"

@@ -51,11 +51,12 @@ std::vector<std::string> solver_names() {
 }
 
 std::string default_solver_name() {
-  // The recommended backend: Ipopt solves Eq. 5 itself, so it returns a local
-  // optimum of the geometry change that the other backends approximate
-  // (docs/BACKENDS.md compares them).
+  // The recommended backend: eq5-newton reaches Eq. 5's smallest change where
+  // Ipopt does, verifies where Ipopt runs out of iterations (near-degenerate
+  // geometry, far from equilibrium) and takes about half Ipopt's time, which
+  // starts from its answer (docs/BACKENDS.md compares them).
   const auto names = solver_names();
-  for (const char* preferred : {"ipopt", "alternating-gn", "alternating"})
+  for (const char* preferred : {"eq5-newton", "ipopt", "alternating-gn", "alternating"})
     if (std::find(names.begin(), names.end(), preferred) != names.end()) return preferred;
   return names.empty() ? std::string() : names.front();
 }
