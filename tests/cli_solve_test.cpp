@@ -79,6 +79,36 @@ TEST_F(CliSolve, EveryBackendSolvesAndTheSolutionChecks) {
   }
 }
 
+// The backend the README's table marks "(default)" (the recommended one,
+// docs/USER-GUIDE.md) is the one `solve` uses without --solver, and it ends at
+// the local optimum of Eq. 5 that Ipopt reaches on its own from the same
+// start, alternating-gn's equilibrium.
+TEST_F(CliSolve, WithoutSolverUsesTheReadmesDefaultAtIpoptsOptimum) {
+  std::ifstream readme_file(std::string(TENSEGRITY_SOURCE_DIR) + "/README.md");
+  const std::string marker = "` (default) |";
+  std::string line, readme_default;
+  while (readme_default.empty() && std::getline(readme_file, line)) {
+    const std::size_t end = line.find(marker);
+    if (line.rfind("| `", 0) == 0 && end != std::string::npos) readme_default = line.substr(3, end - 3);
+  }
+  EXPECT_EQ(readme_default, default_solver_name());
+
+  const std::string scene = write_scene(scenes::perturbed(scenes::prism(6, 0.0, true), 0.05, 3u));
+  const std::string by_default = (dir / "default.json").string(), by_ipopt = (dir / "ipopt-equilibrium.json").string();
+  ASSERT_EQ(run_cli({"solve", scene, "--out", by_default, "--quiet"}).exit_status, 0);
+  ASSERT_EQ(run_cli({"solve", scene, "--solver", "ipopt", "--option", "start=alternating-gn", "--out", by_ipopt, "--quiet"})
+                .exit_status,
+            0);
+  EXPECT_EQ(run_cli({"check", scene, by_default}).exit_status, 0);
+  const auto d = nlohmann::json::parse(std::ifstream(by_default));
+  const auto i = nlohmann::json::parse(std::ifstream(by_ipopt));
+  EXPECT_EQ(d["solver"], default_solver_name());
+  const double change = d["stats"]["geometry_change"].get<double>();
+  const double ipopt_change = i["stats"]["geometry_change"].get<double>();
+  EXPECT_GT(change, 0.0);
+  EXPECT_NEAR(change, ipopt_change, 1e-6 * ipopt_change);
+}
+
 TEST_F(CliSolve, SolveToStandardOutputAndTamperedSolutionFailsTheCheck) {
   const std::string scene = write_scene(scenes::prism(4, 10.0));
   const testing::ProgramRun r = run_cli({"solve", scene});
