@@ -74,7 +74,7 @@ TEST_F(StressTestCommand, ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads) {
     EXPECT_EQ(overall["verified"], overall["converged"]);
     EXPECT_FALSE(overall.contains("median_seconds")) << "--no-times must leave timings out";
   }
-  // The small noise levels are easy: the recommended backend solves them all.
+  // The small noise levels are easy: alternating-gn solves them all.
   const json& gn = j["solvers"]["alternating-gn"]["families"]["noise"]["by_level"];
   for (const char* level : {"0.001", "0.01", "0.1"}) EXPECT_EQ(gn[level]["converged"], 2) << level;
 }
