@@ -51,10 +51,10 @@ std::vector<std::string> solver_names() {
 }
 
 std::string default_solver_name() {
-  // The recommended backend: eq5-newton reaches Eq. 5's smallest change where
-  // Ipopt does, verifies where Ipopt runs out of iterations (near-degenerate
-  // geometry, far from equilibrium) and takes about half Ipopt's time, which
-  // starts from its answer (docs/BACKENDS.md compares them).
+  // The recommended backend: eq5-newton ends at Ipopt's local optimum of
+  // Eq. 5 where both verify, in about half Ipopt's time (Ipopt starts from
+  // its answer), and verifies where Ipopt runs out of iterations
+  // (near-degenerate geometry, far from equilibrium; docs/BACKENDS.md).
   const auto names = solver_names();
   for (const char* preferred : {"eq5-newton", "ipopt", "alternating-gn", "alternating"})
     if (std::find(names.begin(), names.end(), preferred) != names.end()) return preferred;

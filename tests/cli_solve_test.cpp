@@ -94,11 +94,12 @@ TEST_F(CliSolve, WithoutSolverUsesTheReadmesDefaultAtIpoptsOptimum) {
   EXPECT_EQ(readme_default, default_solver_name());
 
   const std::string scene = write_scene(scenes::perturbed(scenes::prism(6, 0.0, true), 0.05, 3u));
-  const std::string by_default = (dir / "default.json").string(), by_ipopt = (dir / "ipopt-equilibrium.json").string();
+  const std::string by_default = (dir / "default.json").string();
+  const std::string by_ipopt = (dir / "ipopt-equilibrium.json").string();
   ASSERT_EQ(run_cli({"solve", scene, "--out", by_default, "--quiet"}).exit_status, 0);
-  ASSERT_EQ(run_cli({"solve", scene, "--solver", "ipopt", "--option", "start=alternating-gn", "--out", by_ipopt, "--quiet"})
-                .exit_status,
-            0);
+  const std::vector<std::string> ipopt_run = {"solve", scene, "--solver", "ipopt", "--option",
+                                              "start=alternating-gn", "--out", by_ipopt, "--quiet"};
+  ASSERT_EQ(run_cli(ipopt_run).exit_status, 0);
   EXPECT_EQ(run_cli({"check", scene, by_default}).exit_status, 0);
   const auto d = nlohmann::json::parse(std::ifstream(by_default));
   const auto i = nlohmann::json::parse(std::ifstream(by_ipopt));
