@@ -15,6 +15,7 @@
 #include "model/json_text.hpp"
 #include "model/scene_io.hpp"
 #include "simulation/link_suggestion.hpp"
+#include "solvers/solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -36,7 +37,8 @@ void register_suggest_link_command(CLI::App& app, CommandRunner& run) {
   cmd->add_flag("--stiff", args->settings.stiff, "Ask for the stiffest link instead of a hinge");
   cmd->add_option("--faces", args->settings.faces, "Faces per block tried for face links (default 3)");
   cmd->add_option("--cables", args->settings.cables, "Cables per block tried for edge links (default 3)");
-  cmd->add_option("--solver", args->settings.solver, "Form-finding backend (default: the recommended one)");
+  cmd->add_option("--solver", args->settings.solver,
+                  "Form-finding backend (default: the recommended one, " + default_solver_name() + ")");
   cmd->add_option("--cable-ea", args->settings.cable_ea, "Cable axial stiffness EA (N) of the linear cord model");
   cmd->add_option("--blocks", args->blocks, "Block library folder (default: the character's block_library)");
   cmd->add_option("--json", args->json_out, "Also write the ranking as JSON to this file");
