@@ -47,6 +47,8 @@
 //   --driver_check=1       solve as `tensegrity solve` does, with the driver's
 //                          check whether a scene already stands (default 0: the
 //                          backend alone)
+//   --extra_backends=L,... more labels backend@key=value beside the default ones,
+//                          e.g. ipopt@mumps_pivot_order=5 (docs/figures/ipopt-orderings.md)
 //
 // Counters (per benchmark, from the last timed run unless said otherwise):
 //   t_1e-4 ... t_1e-10   seconds until the trace first reaches that relative
@@ -178,6 +180,7 @@ struct Config {
   std::vector<int> tower_layers{2, 4, 8, 16, 32};
   std::vector<int> gravity_tower_layers{10, 20, 40};
   bool driver_check = false;
+  std::vector<std::string> extra_backends;  // backend@key=value labels
 };
 Config& config() {
   static Config c;
@@ -309,6 +312,7 @@ double max_rss_mb() {
 std::vector<std::string> bench_backends() {
   std::vector<std::string> names = solver_names();
   names.emplace_back(kIpoptAutoStart);
+  names.insert(names.end(), config().extra_backends.begin(), config().extra_backends.end());
   return names;
 }
 
@@ -491,6 +495,21 @@ std::vector<int> parse_int_list(const std::string& text) {
   return v;
 }
 
+// Labels backend@key=value naming a registered backend; throws on any other.
+std::vector<std::string> parse_backend_labels(const std::string& text) {
+  std::vector<std::string> labels;
+  const std::vector<std::string> known = solver_names();
+  std::stringstream in(text);
+  for (std::string label; std::getline(in, label, ',');) {
+    const std::size_t at = label.find(kOptionSeparator);
+    if (at == std::string::npos || label.find(kOptionValueSeparator, at) == std::string::npos ||
+        std::find(known.begin(), known.end(), label.substr(0, at)) == known.end())
+      throw std::invalid_argument(label);
+    labels.push_back(label);
+  }
+  return labels;
+}
+
 bool take_flag(const char* arg, const char* prefix, std::string* value) {
   const size_t n = std::strlen(prefix);
   if (std::strncmp(arg, prefix, n) != 0) return false;
@@ -519,6 +538,8 @@ void parse_own_flags(int* argc, char** argv) {
         config().tower_layers = parse_int_list(value);
       } else if (take_flag(argv[i], "--gravity_tower_layers=", &value)) {
         config().gravity_tower_layers = parse_int_list(value);
+      } else if (take_flag(argv[i], "--extra_backends=", &value)) {
+        config().extra_backends = parse_backend_labels(value);
       } else if (take_flag(argv[i], "--driver_check=", &value)) {
         if (value != "0" && value != "1") throw std::invalid_argument(value);
         config().driver_check = value == "1";

@@ -66,7 +66,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k eq5_newton_barrier gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores; ipopt_auto_stress,
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k eq5_newton_barrier ipopt_orderings gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores; ipopt_auto_stress,
 # ipopt_default_stress and nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
@@ -1157,6 +1157,45 @@ gravity_towers_10k() {
     '^gravity-towers/[^/]+/(alternating-gn|eq5-newton|ipopt|ipopt@auto)/' "${FIGURES_10K_TIME_LIMIT:-120}" 1e-8
 }
 
+# Ipopt's MUMPS orderings side by side on the chain and gravity tower
+# families: QAMD (the backend's default), METIS, PORD, and QAMD without
+# threshold pivoting (mumps_pivtol=0), which shows what delayed pivots cost.
+ipopt_orderings() {
+  need_bench
+  local name=ipopt-orderings limit=${FIGURES_10K_TIME_LIMIT:-120}
+  local filter='^(scaling/chain-[0-9]+|gravity-towers/[^/]+)/ipopt(/|@mumps)'
+  local extra=ipopt@mumps_pivot_order=5,ipopt@mumps_pivot_order=4,ipopt@mumps_pivtol=0
+  step "ipopt's MUMPS orderings on the chain and gravity tower families (time limit $limit s per solve)"
+  local cmd="$cb --benchmark_filter=$filter --extra_backends=$extra --chain_sizes=32,64,128 --tower_layers= --gravity_tower_layers=40,80,160 --time_limit=$limit --tolerance=1e-8 --benchmark_repetitions=1 --benchmark_out=$name.json --benchmark_out_format=json"
+  header "$out/$name.md" "Ipopt's MUMPS orderings on the chain and gravity tower families" "$cmd"
+  "$cb" --benchmark_filter="$filter" --extra_backends="$extra" --chain_sizes=32,64,128 --tower_layers= \
+    --gravity_tower_layers=40,80,160 --time_limit="$limit" --tolerance=1e-8 --benchmark_repetitions=1 \
+    --benchmark_out="$work/$name.json" --benchmark_out_format=json >/dev/null 2>"$work/$name.log"
+  rm -rf "$work/ord-report"
+  "$py" bench/scripts/report.py --json "$work/$name.json" --out "$work/ord-report" >"$work/ord-report.txt"
+  cp "$work/$name.json" "$out/$name.json"
+  stamp "$out/$name.json" "$cmd"
+  {
+    echo "Scenes: the chain family (N face-linked expandable octahedra under gravity, 2 % node noise;"
+    echo "bench/compare_bench.cpp) and the gravity tower family (\\`generate tower --layers L"
+    echo "--struts-per-layer 8 --cables 50L --gravity\\`, solved to an equilibrium, then 1 % node noise)."
+    echo "\\`ipopt\\` is the backend's default, MUMPS with the QAMD ordering (\\`mumps_pivot_order=6\\`);"
+    echo "\\`@mumps_pivot_order=5\\` METIS, \\`=4\\` PORD; \\`@mumps_pivtol=0\\` QAMD without threshold"
+    echo "pivoting. Every run starts at eq5-newton's answer (the default start), so the time"
+    echo "includes eq5-newton's; Ipopt's share is the difference to its t(1e-8) on the chains. One solve per"
+    echo "scene and label, at most $limit s each, target relative residual 1e-8; wall seconds on a"
+    echo "shared 2-core machine."
+    echo
+    cat "$work/ord-report/table.md"
+    echo
+    echo "Fitted exponents a of time ~ elements^a (least squares on log-log over the verified sizes; report.py):"
+    echo
+    echo '```'
+    sed -n '/^Scaling families/,/^$/p' "$work/ord-report.txt" | grep -E '^(Scaling|  )'
+    echo '```'
+  } >>"$out/$name.md"
+}
+
 # eq5-newton's two barrier rules, Mehrotra's (its default) and the monotone
 # one, side by side on the family to 9,280 elements.
 eq5_newton_barrier() {
@@ -1514,7 +1553,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k eq5_newton_barrier gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k eq5_newton_barrier ipopt_orderings gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores}; do
   "$section"
 done
 step "done; figures in $out"
