@@ -49,6 +49,9 @@
 //                          backend alone)
 //   --extra_backends=L,... more labels backend@key=value beside the default ones,
 //                          e.g. ipopt@mumps_pivot_order=5 (docs/figures/ipopt-orderings.md)
+//   --write_scenes=DIR     write every scene as built, DIR/<scene>.scene.json, so that
+//                          other tools can run the same problems (the gravity towers
+//                          when a selected benchmark builds them)
 //
 // Counters (per benchmark, from the last timed run unless said otherwise):
 //   t_1e-4 ... t_1e-10   seconds until the trace first reaches that relative
@@ -89,6 +92,7 @@
 #include "bench/gravity_tower_family.hpp"
 #include "scenes/towers.hpp"
 #include "model/character.hpp"
+#include "model/scene_io.hpp"
 #include "model/verify.hpp"
 #include "solvers/solver.hpp"
 #include "solvers/trace_csv.hpp"
@@ -181,6 +185,7 @@ struct Config {
   std::vector<int> gravity_tower_layers{10, 20, 40};
   bool driver_check = false;
   std::vector<std::string> extra_backends;  // backend@key=value labels
+  std::string scene_dir;                    // --write_scenes
 };
 Config& config() {
   static Config c;
@@ -381,6 +386,12 @@ void run(benchmark::State& state, const std::string& label, const Structure& sce
                static_cast<double>(peak_heap) / (1024.0 * 1024.0));
 }
 
+// With --write_scenes, the scene as built into that folder.
+void write_scene_if_asked(const Structure& s) {
+  if (config().scene_dir.empty()) return;
+  write_scene_file(s, (std::filesystem::path(config().scene_dir) / (s.name + ".scene.json")).string());
+}
+
 // The gravity tower of `layers` layers, built on first use: its equilibrium
 // solve takes long at the larger sizes, and a filtered run may not need it.
 const Structure* gravity_tower_scene(int layers) {
@@ -394,6 +405,7 @@ const Structure* gravity_tower_scene(int layers) {
     // The equilibrium gets the largest budget any benchmarked solve gets.
     const double budget = std::max(config().time_limit_s, kGravityTowerEquilibriumLimit);
     built[layers] = std::make_unique<Structure>(bench::gravity_tower(layers, budget));
+    write_scene_if_asked(*built[layers]);
     return built[layers].get();
   } catch (const std::exception& e) {
     failed[layers] = e.what();
@@ -476,6 +488,7 @@ void register_all() {
           ->UseRealTime();
     }
   static const std::vector<BenchScene> scenes = all_scenes();
+  for (const BenchScene& s : scenes) write_scene_if_asked(s.structure);
   register_two_cores(scenes);
   for (const BenchScene& s : scenes)
     for (const std::string& backend : bench_backends()) {
@@ -538,6 +551,10 @@ void parse_own_flags(int* argc, char** argv) {
         config().tower_layers = parse_int_list(value);
       } else if (take_flag(argv[i], "--gravity_tower_layers=", &value)) {
         config().gravity_tower_layers = parse_int_list(value);
+      } else if (take_flag(argv[i], "--write_scenes=", &value)) {
+        if (value.empty()) throw std::invalid_argument(value);
+        config().scene_dir = value;
+        std::filesystem::create_directories(value);
       } else if (take_flag(argv[i], "--extra_backends=", &value)) {
         config().extra_backends = parse_backend_labels(value);
       } else if (take_flag(argv[i], "--driver_check=", &value)) {
