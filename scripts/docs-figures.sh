@@ -1075,19 +1075,28 @@ EOF2
 
 # gravity_tower_figure NAME TITLE LAYERS FILTER LIMIT: the family at LAYERS, the
 # benchmarks FILTER selects, LIMIT s per solve, into NAME.md and NAME.json.
+# bench_figure NAME TITLE REPORT ARGS...: the header of $out/NAME.md with the
+# command, compare_bench ARGS with its JSON in $work/NAME.json (copied to $out
+# and stamped), and report.py's tables of it in $work/REPORT.
+bench_figure() {
+  local name=$1 title=$2 report=$3
+  shift 3
+  local cmd="$cb $* --benchmark_out=$name.json --benchmark_out_format=json"
+  header "$out/$name.md" "$title" "$cmd"
+  "$cb" "$@" --benchmark_out="$work/$name.json" --benchmark_out_format=json >/dev/null 2>"$work/$name.log"
+  rm -rf "$work/$report"
+  "$py" bench/scripts/report.py --json "$work/$name.json" --out "$work/$report" >"$work/$report.txt"
+  cp "$work/$name.json" "$out/$name.json"
+  stamp "$out/$name.json" "$cmd"
+}
+
 gravity_tower_figure() {
   local name=$1 title=$2 layers=$3 filter=$4 limit=$5 tolerance=${6:-1e-10} check=${7:-0}
   need_bench
   step "gravity tower family, layers $layers, $filter (time limit $limit s per solve, target $tolerance)"
-  local cmd="$cb --benchmark_filter=$filter --gravity_tower_layers=$layers --chain_sizes= --tower_layers= --time_limit=$limit --tolerance=$tolerance --driver_check=$check --benchmark_repetitions=1 --benchmark_out=$name.json --benchmark_out_format=json"
-  header "$out/$name.md" "$title" "$cmd"
-  "$cb" --benchmark_filter="$filter" --gravity_tower_layers="$layers" --chain_sizes= --tower_layers= \
-    --time_limit="$limit" --tolerance="$tolerance" --driver_check="$check" --benchmark_repetitions=1 \
-    --benchmark_out="$work/$name.json" --benchmark_out_format=json >/dev/null 2>"$work/$name.log"
-  rm -rf "$work/gt-report"
-  "$py" bench/scripts/report.py --json "$work/$name.json" --out "$work/gt-report" >"$work/gt-report.txt"
-  cp "$work/$name.json" "$out/$name.json"
-  stamp "$out/$name.json" "$cmd"
+  bench_figure "$name" "$title" gt-report --benchmark_filter="$filter" --gravity_tower_layers="$layers" \
+    --chain_sizes= --tower_layers= --time_limit="$limit" --tolerance="$tolerance" --driver_check="$check" \
+    --benchmark_repetitions=1
   {
     echo "Scenes: \`tensegrity generate tower --layers L --struts-per-layer 8 --cables 50L --gravity\`"
     echo "(58 L elements), solved to an equilibrium by alternating-gn, then every free node moved by"
@@ -1166,15 +1175,9 @@ ipopt_orderings() {
   local filter='^(scaling/chain-[0-9]+|gravity-towers/[^/]+)/ipopt(/|@mumps)'
   local extra=ipopt@mumps_pivot_order=5,ipopt@mumps_pivot_order=4,ipopt@mumps_pivtol=0
   step "ipopt's MUMPS orderings on the chain and gravity tower families (time limit $limit s per solve)"
-  local cmd="$cb --benchmark_filter=$filter --extra_backends=$extra --chain_sizes=32,64,128 --tower_layers= --gravity_tower_layers=40,80,160 --time_limit=$limit --tolerance=1e-8 --benchmark_repetitions=1 --benchmark_out=$name.json --benchmark_out_format=json"
-  header "$out/$name.md" "Ipopt's MUMPS orderings on the chain and gravity tower families" "$cmd"
-  "$cb" --benchmark_filter="$filter" --extra_backends="$extra" --chain_sizes=32,64,128 --tower_layers= \
-    --gravity_tower_layers=40,80,160 --time_limit="$limit" --tolerance=1e-8 --benchmark_repetitions=1 \
-    --benchmark_out="$work/$name.json" --benchmark_out_format=json >/dev/null 2>"$work/$name.log"
-  rm -rf "$work/ord-report"
-  "$py" bench/scripts/report.py --json "$work/$name.json" --out "$work/ord-report" >"$work/ord-report.txt"
-  cp "$work/$name.json" "$out/$name.json"
-  stamp "$out/$name.json" "$cmd"
+  bench_figure "$name" "Ipopt's MUMPS orderings on the chain and gravity tower families" ord-report \
+    --benchmark_filter="$filter" --extra_backends="$extra" --chain_sizes=32,64,128 --tower_layers= \
+    --gravity_tower_layers=40,80,160 --time_limit="$limit" --tolerance=1e-8 --benchmark_repetitions=1
   {
     echo "Scenes: the chain family (N face-linked expandable octahedra under gravity, 2 % node noise;"
     echo "bench/compare_bench.cpp) and the gravity tower family (\`generate tower --layers L"
