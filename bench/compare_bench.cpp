@@ -68,6 +68,7 @@
 // computed by bench/scripts/report.py from the JSON (it needs all backends).
 #include <benchmark/benchmark.h>
 #include <malloc.h>
+#include <nlohmann/json.hpp>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -85,6 +86,7 @@
 #include <memory>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -386,10 +388,27 @@ void run(benchmark::State& state, const std::string& label, const Structure& sce
                static_cast<double>(peak_heap) / (1024.0 * 1024.0));
 }
 
-// With --write_scenes, the scene as built into that folder.
+// With --write_scenes, the scene as built into that folder. Two different
+// scenes of one name would leave only the last one's file, so that is an
+// error; the same scene in two families is written once. Exits 2 on either
+// error, as on a bad flag.
 void write_scene_if_asked(const Structure& s) {
   if (config().scene_dir.empty()) return;
-  write_scene_file(s, (std::filesystem::path(config().scene_dir) / (s.name + ".scene.json")).string());
+  static std::mutex mutex;
+  static std::map<std::string, nlohmann::json> written;
+  std::lock_guard<std::mutex> lock(mutex);
+  try {
+    nlohmann::json scene = scene_to_json(s);
+    if (auto it = written.find(s.name); it != written.end()) {
+      if (it->second == scene) return;
+      throw std::runtime_error("two different scenes are named " + s.name);
+    }
+    write_scene_file(s, (std::filesystem::path(config().scene_dir) / (s.name + ".scene.json")).string());
+    written.emplace(s.name, std::move(scene));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "compare_bench: --write_scenes: %s\n", e.what());
+    std::exit(2);
+  }
 }
 
 // The gravity tower of `layers` layers, built on first use: its equilibrium
@@ -405,13 +424,13 @@ const Structure* gravity_tower_scene(int layers) {
     // The equilibrium gets the largest budget any benchmarked solve gets.
     const double budget = std::max(config().time_limit_s, kGravityTowerEquilibriumLimit);
     built[layers] = std::make_unique<Structure>(bench::gravity_tower(layers, budget));
-    write_scene_if_asked(*built[layers]);
-    return built[layers].get();
   } catch (const std::exception& e) {
     failed[layers] = e.what();
     std::fprintf(stderr, "%s\n", e.what());
     return nullptr;
   }
+  write_scene_if_asked(*built[layers]);
+  return built[layers].get();
 }
 
 // Both passes of the two-core family over `jobs`; the benchmark's time is the
@@ -508,15 +527,20 @@ std::vector<int> parse_int_list(const std::string& text) {
   return v;
 }
 
-// Labels backend@key=value naming a registered backend; throws on any other.
+// Labels backend@key=value naming a registered backend, a key and a value;
+// throws on any other, and on a label given twice or already benchmarked
+// (two benchmarks of one name).
 std::vector<std::string> parse_backend_labels(const std::string& text) {
   std::vector<std::string> labels;
   const std::vector<std::string> known = solver_names();
+  std::set<std::string> taken{std::string(kIpoptAutoStart), kEq5NewtonMonotone};
   std::stringstream in(text);
   for (std::string label; std::getline(in, label, ',');) {
     const std::size_t at = label.find(kOptionSeparator);
-    if (at == std::string::npos || label.find(kOptionValueSeparator, at) == std::string::npos ||
-        std::find(known.begin(), known.end(), label.substr(0, at)) == known.end())
+    const std::size_t equals = at == std::string::npos ? at : label.find(kOptionValueSeparator, at);
+    const bool well_formed = equals != std::string::npos && equals > at + 1 && equals + 1 < label.size();
+    if (!well_formed || std::find(known.begin(), known.end(), label.substr(0, at)) == known.end() ||
+        !taken.insert(label).second)
       throw std::invalid_argument(label);
     labels.push_back(label);
   }

@@ -28,6 +28,9 @@
 #   gravity-towers-10k.md  the same family to 160 layers (9,280 elements) for
 #                  alternating-gn, eq5-newton and ipopt (FIGURES_10K_TIME_LIMIT s, default 120),
 #                  at the solve's default target relative residual 1e-8
+#   ipopt-orderings.md  ipopt with MUMPS's QAMD (its default), METIS and PORD orderings
+#                  and without threshold pivoting, on the chain family (32-128 blocks) and the
+#                  gravity tower family (40-160 layers; FIGURES_10K_TIME_LIMIT s, default 120)
 #   gravity-towers-driver.md  alternating-gn and eq5-newton on that family as
 #                  `tensegrity solve` runs them: with the driver's check whether a scene stands
 #   ipopt-starts.md  ipopt's starts on gravity prisms and a tower; MUMPS orderings
@@ -1073,15 +1076,25 @@ for scene in scenes:
 EOF2
 }
 
-# gravity_tower_figure NAME TITLE LAYERS FILTER LIMIT: the family at LAYERS, the
-# benchmarks FILTER selects, LIMIT s per solve, into NAME.md and NAME.json.
+# The arguments as one line that a shell reads back as the same words: a word
+# with a character outside [A-Za-z0-9_./=,:@+-] in single quotes.
+shell_words() {
+  local word line=""
+  for word in "$@"; do
+    [[ $word =~ ^[A-Za-z0-9_./=,:@+-]*$ ]] || word="'$word'"
+    line+="${line:+ }$word"
+  done
+  printf '%s' "$line"
+}
+
 # bench_figure NAME TITLE REPORT ARGS...: the header of $out/NAME.md with the
 # command, compare_bench ARGS with its JSON in $work/NAME.json (copied to $out
 # and stamped), and report.py's tables of it in $work/REPORT.
 bench_figure() {
   local name=$1 title=$2 report=$3
   shift 3
-  local cmd="$cb $* --benchmark_out=$name.json --benchmark_out_format=json"
+  local cmd
+  cmd="$cb $(shell_words "$@") --benchmark_out=$name.json --benchmark_out_format=json"
   header "$out/$name.md" "$title" "$cmd"
   "$cb" "$@" --benchmark_out="$work/$name.json" --benchmark_out_format=json >/dev/null 2>"$work/$name.log"
   rm -rf "$work/$report"
@@ -1090,6 +1103,8 @@ bench_figure() {
   stamp "$out/$name.json" "$cmd"
 }
 
+# gravity_tower_figure NAME TITLE LAYERS FILTER LIMIT: the family at LAYERS, the
+# benchmarks FILTER selects, LIMIT s per solve, into NAME.md and NAME.json.
 gravity_tower_figure() {
   local name=$1 title=$2 layers=$3 filter=$4 limit=$5 tolerance=${6:-1e-10} check=${7:-0}
   need_bench
@@ -1184,8 +1199,10 @@ ipopt_orderings() {
     echo "--struts-per-layer 8 --cables 50L --gravity\`, solved to an equilibrium, then 1 % node noise)."
     echo "\`ipopt\` is the backend's default, MUMPS with the QAMD ordering (\`mumps_pivot_order=6\`);"
     echo "\`@mumps_pivot_order=5\` METIS, \`=4\` PORD; \`@mumps_pivtol=0\` QAMD without threshold"
-    echo "pivoting. Every run starts at eq5-newton's answer (the default start), so the time"
-    echo "includes eq5-newton's; Ipopt's share is the difference to its t(1e-8) on the chains. One solve per"
+    echo "pivoting. Every run starts at eq5-newton's answer (the default start; where Ipopt gives no"
+    echo "verified answer from there it runs again from alternating-gn's equilibrium, then from the"
+    echo "scene), so times and iteration counts include eq5-newton's (t(1e-8) is mostly eq5-newton's"
+    echo "part) and any such further run. One solve per"
     echo "scene and label, at most $limit s each, target relative residual 1e-8; wall seconds on a"
     echo "shared 2-core machine."
     echo
