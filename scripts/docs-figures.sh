@@ -1183,7 +1183,7 @@ gravity_towers_10k() {
 
 # Ipopt's MUMPS orderings side by side on the chain and gravity tower
 # families: QAMD (the backend's default), METIS, PORD, and QAMD without
-# threshold pivoting (mumps_pivtol=0), which shows what delayed pivots cost.
+# threshold pivoting (mumps_pivtol=0), what dropping MUMPS's pivoting costs.
 ipopt_orderings() {
   need_bench
   local name=ipopt-orderings limit=${FIGURES_10K_TIME_LIMIT:-120}
