@@ -33,7 +33,6 @@
 #include "model/errors.hpp"
 #include "model/json_text.hpp"
 #include "model/scene_io.hpp"
-#include "solvers/solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -138,8 +137,8 @@ void register_batch_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("scenes", args->scenes, "Scene files (*.scene.json), or folders of them")->required();
   cmd->add_option("--solver", args->solvers,
                   "Backend names, comma-separated or repeated: every scene with each (see `tensegrity solvers`); "
-                  "default: the recommended one, " +
-                      default_solver_name())
+                  "default: " +
+                      reports::default_solver_help())
       ->delimiter(',');
   cmd->add_option("--jobs", args->jobs, "Worker processes, 1..256 (default: the available cores)");
   cmd->add_option("--out-dir", args->out_dir,

@@ -39,7 +39,6 @@
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
 #include "design/naive_sweep.hpp"
-#include "solvers/solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -204,8 +203,8 @@ void register_design_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--naive-fraction", args->naive_fraction,
                   "Baseline: every cable's rest length = F * its length, in (0, 1] (no stiffness scaling)");
   cmd->add_option("--solver", args->solver,
-                  "Form-finding backend when the input is not in equilibrium (default: the recommended one, " +
-                      default_solver_name() + ")");
+                  "Form-finding backend when the input is not in equilibrium (default: " +
+                      reports::default_solver_help() + ")");
   cmd->add_option("--tol", args->tol, "Relative residual for form finding and verification");
   cmd->add_option("--time-limit", args->time_limit, "Form-finding wall-clock budget in seconds");
   cmd->add_option("--out", args->out, "Design file to write, - for standard output")->required();

@@ -16,7 +16,6 @@
 #include "cli/progress.hpp"
 #include "model/errors.hpp"
 #include "model/scene_io.hpp"
-#include "solvers/solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -73,7 +72,7 @@ void register_solve_command(CLI::App& app, CommandRunner& run) {
   auto* cmd = app.add_subcommand("solve", "Form-find a scene with one backend; write its solution");
   cmd->add_option("scene", args->scene, "Scene file (*.scene.json)")->required();
   cmd->add_option("--solver", args->solver,
-                  "Backend name (see `tensegrity solvers`); default: the recommended one, " + default_solver_name());
+                  "Backend name (see `tensegrity solvers`); default: " + reports::default_solver_help());
   cmd->add_option("--out", args->out, "Solution file, - for standard output");
   cmd->add_option("--tol", args->tol, "Relative residual for `converged` (finite, > 0)");
   cmd->add_option("--max-iterations", args->max_iterations, reports::max_iterations_help("Backend iteration budget"));

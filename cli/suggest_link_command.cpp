@@ -14,8 +14,8 @@
 #include "model/json_io.hpp"
 #include "model/json_text.hpp"
 #include "model/scene_io.hpp"
+#include "reports/output.hpp"
 #include "simulation/link_suggestion.hpp"
-#include "solvers/solver.hpp"
 
 namespace tensegrity::cli {
 
@@ -38,7 +38,7 @@ void register_suggest_link_command(CLI::App& app, CommandRunner& run) {
   cmd->add_option("--faces", args->settings.faces, "Faces per block tried for face links (default 3)");
   cmd->add_option("--cables", args->settings.cables, "Cables per block tried for edge links (default 3)");
   cmd->add_option("--solver", args->settings.solver,
-                  "Form-finding backend (default: the recommended one, " + default_solver_name() + ")");
+                  "Form-finding backend (default: " + reports::default_solver_help() + ")");
   cmd->add_option("--cable-ea", args->settings.cable_ea, "Cable axial stiffness EA (N) of the linear cord model");
   cmd->add_option("--blocks", args->blocks, "Block library folder (default: the character's block_library)");
   cmd->add_option("--json", args->json_out, "Also write the ranking as JSON to this file");

@@ -54,6 +54,8 @@ std::map<std::string, std::string> parse_key_values(const std::vector<std::strin
   return kv;
 }
 
+std::string default_solver_help() { return "the recommended one, " + default_solver_name(); }
+
 std::string max_iterations_help(const std::string& what) {
   return what + " (default 0: the backend's own, " + std::to_string(kFaithfulIterationBudget) +
          " outer iterations for alternating, " + std::to_string(kDefaultIterationBudget) + " for the others)";

@@ -28,6 +28,8 @@ std::map<std::string, std::string> parse_key_values(const std::vector<std::strin
 std::unique_ptr<Solver> checked_solver(const std::string& name, const SolveOptions& options);
 // Help text of --max-iterations (solve, batch): 0 and the backends' own budgets.
 std::string max_iterations_help(const std::string& what);
+// What --solver defaults to, for its help text: "the recommended one, NAME".
+std::string default_solver_help();
 // Exit status of a finished solve (docs/USER-GUIDE.md): 0 converged, 1 otherwise.
 inline int exit_status(Status s) { return s == Status::Converged ? 0 : 1; }
 
