@@ -28,6 +28,8 @@
 #   gravity-towers-10k.md  the same family to 160 layers (9,280 elements) for
 #                  alternating-gn, eq5-newton and ipopt (FIGURES_10K_TIME_LIMIT s, default 120),
 #                  at the solve's default target relative residual 1e-8
+#   gravity-towers-dense.md  alternating-gn, eq5-newton and ipopt on the same family
+#                  every 20 layers from 20 to 160 (FIGURES_10K_TIME_LIMIT s, default 120)
 #   ipopt-orderings.md  ipopt with MUMPS's QAMD (its default), METIS and PORD orderings
 #                  and without threshold pivoting, on the chain family (32-128 blocks) and the
 #                  gravity tower family (40-160 layers; FIGURES_10K_TIME_LIMIT s, default 120)
@@ -69,7 +71,7 @@
 # FIGURES_NO_BUILD=1 (use the existing build as it is), FIGURES_SECTIONS (a
 # subset of: characters blocks relax character_design duck_neck link_stiffness
 # character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts
-# eq5_newton nlopt_variants gravity_towers gravity_towers_10k eq5_newton_barrier ipopt_orderings gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores; ipopt_auto_stress,
+# eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_dense eq5_newton_barrier ipopt_orderings gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores; ipopt_auto_stress,
 # ipopt_default_stress and nlopt_auto_stress only when named), FIGURES_GRAVITY_TOWER_LAYERS (default 10,20,40; the whole
 # family is 10,20,40,80,160), FIGURES_FORCES_TOWER_LAYERS (default "10 20 40 80 160").
 set -euo pipefail
@@ -1181,6 +1183,14 @@ gravity_towers_10k() {
     '^gravity-towers/[^/]+/(alternating-gn|eq5-newton|ipopt|ipopt@auto)/' "${FIGURES_10K_TIME_LIMIT:-120}" 1e-8
 }
 
+# The family every 20 layers from 20 to 160 for eq5-newton, the
+# alternating-gn it starts from and Ipopt (from eq5-newton's answer): how
+# regular the growth is between the sizes of the fit above.
+gravity_towers_dense() {
+  gravity_tower_figure gravity-towers-dense "The gravity tower family every 20 layers" 20,40,60,80,100,120,140,160 \
+    '^gravity-towers/[^/]+/(alternating-gn|eq5-newton|ipopt)/' "${FIGURES_10K_TIME_LIMIT:-120}" 1e-8
+}
+
 # Ipopt's MUMPS orderings side by side on the chain and gravity tower
 # families: QAMD (the backend's default), METIS, PORD, and QAMD without
 # threshold pivoting (mumps_pivtol=0), what dropping MUMPS's pivoting costs.
@@ -1573,7 +1583,7 @@ EOF2
 
 # The deterministic figures first, the timed ones after them, so that a run
 # cut short still leaves complete files.
-for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k eq5_newton_barrier ipopt_orderings gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores}; do
+for section in ${FIGURES_SECTIONS:-characters blocks relax character_design duck_neck link_stiffness character_stress outputs backends side_by_side stress_noise scaling stress_families ipopt_starts eq5_newton nlopt_variants gravity_towers gravity_towers_10k gravity_towers_dense eq5_newton_barrier ipopt_orderings gravity_towers_driver forces_towers towers_as_generated check_qp prestress_factor two_cores}; do
   "$section"
 done
 step "done; figures in $out"
