@@ -60,8 +60,9 @@ if [ "${TENSEGRITY_SKIP_SANITIZERS:-0}" != 1 ]; then
   # tower's equilibrium without gravity (about 10 s in Release) runs there as
   # well, alone, through Ipopt's residual form and through the command line
   # (a minute each under ASan); the same kernels run sanitized on smaller
-  # scenes. So does Ipopt on the 160-layer gravity tower (about 5 s in
-  # Release); the same start runs sanitized on the scorpion. And so does the
+  # scenes. So does Ipopt on the 160- and 140-layer gravity towers (about 5
+  # and 3 s in Release); the same start runs sanitized on the scorpion, and
+  # the stress QP of the second force polish on every scene it solves. And so does the
   # sweep of every bad input in every role a command reads a file in (675
   # program runs, five minutes of the two cores under ASan): every bad input
   # still runs sanitized through `solve` and `forces` (CliBadInput), every
@@ -70,7 +71,7 @@ if [ "${TENSEGRITY_SKIP_SANITIZERS:-0}" != 1 ]; then
   # 100-step cap on the as-generated 40-layer tower (1 s in Release, 38 s
   # under ASan) is left there too: the stall itself runs sanitized wherever
   # a check stalls (StressQp.GivingUpLeavesAStandingTowerUntouched ends so).
-  long_sweeps='^ForceScaleGravity\.TowerOf40LayersWithoutGravityEquilibriumPassesForces$|^AlternatingSolver\.MarginOptionSetsTheSmallestCableForce$|^AlternatingSolver/StronglyPerturbedPrisms\.ConvergeExceptOnTheNamedScenesAndFailCleanly/alternating(_sdc)?( |$)|^AlternatingSolver\.FaithfulSchemeConvergesOnPerturbedCharacters$|^AlternatingSolver\.PerturbedOctahedraConverge$|^ForceScaleGravity\.EquilibriaOfTheMassFamilyStand$|^StressTestCommand\.ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads$|^cli_prestress_factor$|^schema_test$|^IpoptSolver\.Eq5NewtonStartVerifiesTheLargestGravityTower$|^StressQpIpopt\.FindsTheEquilibriumOfALargeNearMechanism$|^cli_standing_tower$|^StressQp\.TheChecksStallEndsTheStepsThatBringNothing$|^Roles/CliHostileInputPerRole\.EveryBadInputClass/'
+  long_sweeps='^ForceScaleGravity\.TowerOf40LayersWithoutGravityEquilibriumPassesForces$|^AlternatingSolver\.MarginOptionSetsTheSmallestCableForce$|^AlternatingSolver/StronglyPerturbedPrisms\.ConvergeExceptOnTheNamedScenesAndFailCleanly/alternating(_sdc)?( |$)|^AlternatingSolver\.FaithfulSchemeConvergesOnPerturbedCharacters$|^AlternatingSolver\.PerturbedOctahedraConverge$|^ForceScaleGravity\.EquilibriaOfTheMassFamilyStand$|^StressTestCommand\.ReportIsBitIdenticalRunToRunAndOnOneOrTwoThreads$|^cli_prestress_factor$|^schema_test$|^IpoptSolver\.Eq5NewtonStartVerifiesTheLargestGravityTower$|^IpoptSolver\.ASecondForcePolishVerifiesThe140LayerGravityTower$|^StressQpIpopt\.FindsTheEquilibriumOfALargeNearMechanism$|^cli_standing_tower$|^StressQp\.TheChecksStallEndsTheStepsThatBringNothing$|^Roles/CliHostileInputPerRole\.EveryBadInputClass/'
   (cd build-asan &&
      ASAN_OPTIONS=detect_leaks=1:exitcode=23:strict_string_checks=1:detect_stack_use_after_return=1 \
      UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1:exitcode=23 \
