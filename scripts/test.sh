@@ -62,7 +62,8 @@ if [ "${TENSEGRITY_SKIP_SANITIZERS:-0}" != 1 ]; then
   # (a minute each under ASan); the same kernels run sanitized on smaller
   # scenes. So does Ipopt on the 160- and 140-layer gravity towers (about 5
   # and 3 s in Release); the same start runs sanitized on the scorpion, and
-  # the stress QP of the second force polish on every scene it solves. And so does the
+  # the stress QP of the force polishes (whose regulariser is an option) in
+  # its own tests. And so does the
   # sweep of every bad input in every role a command reads a file in (675
   # program runs, five minutes of the two cores under ASan): every bad input
   # still runs sanitized through `solve` and `forces` (CliBadInput), every
