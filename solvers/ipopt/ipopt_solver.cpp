@@ -55,9 +55,9 @@ constexpr double kRoundOffDualFactor = 10.0;
 constexpr int kForcePolishSteps = 100;
 // The stress QP's regulariser mu for the polish: its default first, then a
 // larger one, which leaves the residual unbiased (the QP's polish drops it)
-// but conditions its factorization better: on the 140-layer gravity tower
-// (forces up to 5.7e5 N) the default ends at relative residual 1.19e-8, 1e-8
-// at 5.5e-9 (docs/BACKENDS.md, optimal to round-off).
+// but conditions its factorization better. On the 140-layer gravity tower
+// (forces up to 5.7e5 N) the polish ends at relative residual 1.19e-8 with
+// the default and at 5.5e-9 with 1e-8 (docs/BACKENDS.md, optimal to round-off).
 constexpr double kForcePolishRegularisers[] = {StressQpOptions{}.mu, 1e-8};
 // Ipopt's Search_Direction_Becomes_Too_Small (ApplicationReturnStatus).
 constexpr int kSearchDirectionTooSmall = 3;
